@@ -1,0 +1,35 @@
+// Exact fixed-point crossing test shared by the voxelisation kernels.
+// It mirrors src/core/fixed_raster.hpp line for line: vertex coordinates are integers in units of
+// 1/SUBVOXEL of a voxel, so every decision below is integer arithmetic and the GPU and the CPU
+// reference agree bit for bit (no float rounding, no FMA contraction).
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+const int64_t SUBVOXEL = 64;
+
+int64_t edge_function(ivec2 a, ivec2 b, ivec2 p) {
+    return int64_t(b.x - a.x) * int64_t(p.y - a.y) - int64_t(b.y - a.y) * int64_t(p.x - a.x);
+}
+
+// Top-left rule: a sample exactly on an edge belongs to exactly one of the two triangles that share
+// it, so a watertight surface is crossed exactly once.
+bool is_top_left(ivec2 a, ivec2 b) {
+    int dy = b.y - a.y;
+    int dx = b.x - a.x;
+    return dy < 0 || (dy == 0 && dx < 0);
+}
+
+bool covers(int64_t w, ivec2 a, ivec2 b) {
+    return w > 0 || (w == 0 && is_top_left(a, b));
+}
+
+int64_t floor_div(int64_t n, int64_t d) {  // d > 0
+    return n >= 0 ? n / d : -((-n + d - 1) / d);
+}
+
+// Column index range whose centres (i + 1/2) lie in [lo, hi] (fixed point); empty when first > last.
+ivec2 centre_range(int lo, int hi) {
+    int64_t half_voxel = SUBVOXEL / 2;
+    int first = int(-floor_div(-(int64_t(lo) - half_voxel), SUBVOXEL));
+    int last = int(floor_div(int64_t(hi) - half_voxel, SUBVOXEL));
+    return ivec2(first, last);
+}

@@ -1,0 +1,80 @@
+#include "core/amhv.hpp"
+
+#include <bit>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+Amhv::Amhv(VoxelGrid grid, int frames) : grid_(grid), frames_(frames), words_((frames + 31) / 32) {
+    if (frames <= 0) throw Error(fmt::format("an aMHV needs at least one frame, got {}", frames));
+    mask_.assign(std::size_t(words_) * grid_.voxel_count(), 0u);
+}
+
+int Amhv::t_start(std::size_t voxel) const {
+    for (int w = 0; w < words_; ++w)
+        if (auto bits = word(w, voxel)) return w * 32 + std::countr_zero(bits);
+    return -1;
+}
+
+int Amhv::t_end(std::size_t voxel) const {
+    for (int w = words_ - 1; w >= 0; --w)
+        if (auto bits = word(w, voxel)) return w * 32 + 31 - std::countl_zero(bits);
+    return -1;
+}
+
+int Amhv::frame_count(std::size_t voxel) const {
+    int count = 0;
+    for (int w = 0; w < words_; ++w) count += std::popcount(word(w, voxel));
+    return count;
+}
+
+bool Amhv::any(std::size_t voxel) const {
+    for (int w = 0; w < words_; ++w)
+        if (word(w, voxel)) return true;
+    return false;
+}
+
+bool Amhv::has_gap(std::size_t voxel) const {
+    int first = t_start(voxel);
+    if (first < 0) return false;
+    return t_end(voxel) - first + 1 != frame_count(voxel);
+}
+
+int Amhv::label(std::size_t voxel) const {
+    int first = t_start(voxel);
+    if (first < 0) return 0;
+    if (t_end(voxel) == frames_ - 1) return 1;
+    if (first == 0) return -1;
+    return 0;
+}
+
+AmhvSummary summarise(const Amhv& volume) {
+    AmhvSummary summary;
+    summary.occupied_per_frame.assign(std::size_t(volume.frames()), 0);
+    const auto& grid = volume.grid();
+    Vec3 sum = Vec3::Zero();
+    for (int z = 0; z < grid.dims[2]; ++z)
+        for (int y = 0; y < grid.dims[1]; ++y)
+            for (int x = 0; x < grid.dims[0]; ++x) {
+                std::size_t v = grid.index(x, y, z);
+                if (!volume.any(v)) continue;
+                ++summary.occupied_voxels;
+                if (volume.has_gap(v)) ++summary.gap_voxels;
+                Vec3 c = grid.centre(x, y, z);
+                sum += c;
+                summary.bounds.extend(c - Vec3::Constant(grid.voxel / 2));
+                summary.bounds.extend(c + Vec3::Constant(grid.voxel / 2));
+                for (int w = 0; w < volume.words(); ++w) {
+                    auto bits = volume.word(w, v);
+                    while (bits) {
+                        ++summary.occupied_per_frame[std::size_t(w * 32 + std::countr_zero(bits))];
+                        bits &= bits - 1;
+                    }
+                }
+            }
+    if (summary.occupied_voxels) summary.root = sum / double(summary.occupied_voxels);
+    return summary;
+}
+
+}  // namespace amhv

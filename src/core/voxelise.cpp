@@ -1,0 +1,98 @@
+#include "core/voxelise.hpp"
+
+#include <cmath>
+
+#include <spdlog/spdlog.h>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid) {
+    Vec3 local = (p - grid.origin) / grid.voxel * double(fixed::kSubvoxel);
+    return {std::int32_t(std::llround(local.x())), std::int32_t(std::llround(local.y())), std::int32_t(std::llround(local.z()))};
+}
+
+VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid) {
+    VoxelisationInput input;
+    input.grid = grid;
+    input.frames.resize(frames.size());
+    const std::int64_t limit[3] = {std::int64_t(grid.dims[0]) * fixed::kSubvoxel, std::int64_t(grid.dims[1]) * fixed::kSubvoxel,
+                                   std::int64_t(grid.dims[2]) * fixed::kSubvoxel};
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        const MeshFrame& frame = *frames[f];
+        PreparedFrame& prepared = input.frames[f];
+        prepared.source = frame.source;
+        prepared.closed = frame.mesh.is_closed();
+        std::vector<fixed::Point3> points;
+        points.reserve(frame.mesh.vertices.size());
+        for (const Vec3& v : frame.mesh.vertices) {
+            fixed::Point3 q = quantise(v, grid);
+            if (q.x < 0 || q.y < 0 || q.z < 0 || q.x > limit[0] || q.y > limit[1] || q.z > limit[2])
+                fail(frame.source, "vertex ({:.4f}, {:.4f}, {:.4f}) lies outside the segment's voxel grid", v.x(), v.y(), v.z());
+            points.push_back(q);
+        }
+        prepared.triangles.reserve(frame.mesh.triangles.size());
+        for (const auto& t : frame.mesh.triangles) prepared.triangles.push_back({points[t[0]], points[t[1]], points[t[2]]});
+    }
+    return input;
+}
+
+namespace {
+
+// Separating-axis triangle/box overlap (Akenine-Moeller), in voxel units on exact inputs.
+bool triangle_touches_box(const Vec3 (&tri)[3], const Vec3& centre, double half) {
+    Vec3 v[3] = {tri[0] - centre, tri[1] - centre, tri[2] - centre};
+    Vec3 e[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+    for (int i = 0; i < 3; ++i)
+        for (int axis = 0; axis < 3; ++axis) {
+            Vec3 a = Vec3::Unit(axis).cross(e[i]);
+            double p0 = a.dot(v[0]), p1 = a.dot(v[1]), p2 = a.dot(v[2]);
+            double r = half * (std::abs(a.x()) + std::abs(a.y()) + std::abs(a.z()));
+            if (std::min({p0, p1, p2}) > r || std::max({p0, p1, p2}) < -r) return false;
+        }
+    for (int axis = 0; axis < 3; ++axis)
+        if (std::min({v[0][axis], v[1][axis], v[2][axis]}) > half || std::max({v[0][axis], v[1][axis], v[2][axis]}) < -half)
+            return false;
+    Vec3 n = e[0].cross(e[1]);
+    double d = n.dot(v[0]);
+    double r = half * (std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z()));
+    return std::abs(d) <= r;
+}
+
+}  // namespace
+
+void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out) {
+    const auto& dims = out.grid().dims;
+    const double scale = 1.0 / double(fixed::kSubvoxel);
+    for (const auto& t : frame.triangles) {
+        Vec3 tri[3];
+        for (int i = 0; i < 3; ++i) tri[i] = Vec3(t[i].x, t[i].y, t[i].z) * scale;  // exact: power-of-two scale
+        Vec3 lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]);
+        Vec3 hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
+        int first[3], last[3];
+        for (int a = 0; a < 3; ++a) {
+            first[a] = std::max(0, int(std::floor(lo[a])) - 1);
+            last[a] = std::min(dims[a] - 1, int(std::floor(hi[a])));
+        }
+        for (int z = first[2]; z <= last[2]; ++z)
+            for (int y = first[1]; y <= last[1]; ++y)
+                for (int x = first[0]; x <= last[0]; ++x)
+                    if (triangle_touches_box(tri, Vec3(x + 0.5, y + 0.5, z + 0.5), 0.5))
+                        out.set(out.grid().index(x, y, z), frame_index);
+    }
+}
+
+Amhv voxelise(const VoxelisationInput& input, Voxeliser& backend, VoxeliseReport* report) {
+    Amhv volume(input.grid, int(input.frames.size()));
+    backend.voxelise_solid(input, volume);
+    for (std::size_t f = 0; f < input.frames.size(); ++f) {
+        if (input.frames[f].closed) continue;
+        spdlog::warn("{}: mesh is not closed; frame {} uses the conservative surface voxelisation", input.frames[f].source, f);
+        voxelise_surface(input.frames[f], int(f), volume);
+        if (report) report->open_frames.push_back(int(f));
+    }
+    return volume;
+}
+
+}  // namespace amhv

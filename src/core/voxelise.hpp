@@ -1,0 +1,52 @@
+#pragma once
+// Voxelisation of a mesh segment into an aMHV (METHOD.md section 3).
+//
+// The host quantises every frame once (prepare_voxelisation); a Voxeliser backend (the Vulkan
+// kernels or the plain CPU reference) computes solid occupancy of the closed frames by the
+// non-zero winding rule; open frames get the conservative surface rule on the host, the same for
+// every backend, so both backends always produce identical volumes.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/amhv.hpp"
+#include "core/fixed_raster.hpp"
+#include "core/geometry.hpp"
+
+namespace amhv {
+
+struct PreparedFrame {
+    std::vector<fixed::Triangle> triangles;  // fixed point, relative to the grid origin
+    bool closed = true;
+    std::string source;
+};
+
+struct VoxelisationInput {
+    VoxelGrid grid;
+    std::vector<PreparedFrame> frames;
+};
+
+fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid);
+
+// Quantises `frames` into `grid` (which must contain them) and classifies each as closed or open.
+VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid);
+
+class Voxeliser {
+public:
+    virtual ~Voxeliser() = default;
+    virtual std::string name() const = 0;
+    // Sets the occupancy bits of every closed frame of `input` in `out` (zeroed, same grid/frames).
+    virtual void voxelise_solid(const VoxelisationInput& input, Amhv& out) = 0;
+};
+
+// Conservative surface voxelisation of one frame: every voxel whose cube touches a triangle.
+void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out);
+
+struct VoxeliseReport {
+    std::vector<int> open_frames;  // frames voxelised by the surface rule
+};
+
+// Full voxelisation: solid frames through `backend`, open frames through the surface rule.
+Amhv voxelise(const VoxelisationInput& input, Voxeliser& backend, VoxeliseReport* report = nullptr);
+
+}  // namespace amhv

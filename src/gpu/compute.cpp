@@ -1,0 +1,161 @@
+#include "gpu/compute.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+#include "core/error.hpp"
+
+namespace amhv::gpu {
+
+namespace {
+
+vk::raii::Buffer make_buffer(Context& context, vk::DeviceSize size) {
+    return vk::raii::Buffer(context.device(), vk::BufferCreateInfo{
+        .size = size,
+        .usage = vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eTransferSrc |
+                 vk::BufferUsageFlagBits::eTransferDst,
+        .sharingMode = vk::SharingMode::eExclusive});
+}
+
+vk::raii::DeviceMemory allocate(Context& context, const vk::raii::Buffer& buffer, Buffer::Memory memory) {
+    auto requirements = buffer.getMemoryRequirements();
+    using F = vk::MemoryPropertyFlagBits;
+    std::uint32_t type = memory == Buffer::Memory::Device
+        ? context.memory_type(requirements.memoryTypeBits, F::eDeviceLocal, F::eDeviceLocal)
+        : context.memory_type(requirements.memoryTypeBits, F::eHostVisible | F::eHostCoherent, F::eHostCached);
+    try {
+        return vk::raii::DeviceMemory(context.device(), vk::MemoryAllocateInfo{.allocationSize = requirements.size,
+                                                                             .memoryTypeIndex = type});
+    } catch (const vk::SystemError& e) {
+        throw Error(fmt::format("{}: cannot allocate {:.1f} MiB of GPU memory ({})", context.selected().name,
+                                double(requirements.size) / (1 << 20), e.what()));
+    }
+}
+
+}  // namespace
+
+Buffer::Buffer(Context& context, vk::DeviceSize size, Memory memory)
+    : size_(std::max<vk::DeviceSize>(size, 4)), buffer_(make_buffer(context, size_)), memory_(allocate(context, buffer_, memory)) {
+    buffer_.bindMemory(*memory_, 0);
+    if (memory == Memory::Host) mapped_ = memory_.mapMemory(0, size_);
+}
+
+Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint32_t buffer_count,
+               std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation)
+    : context_(context),
+      specialisation_(std::move(specialisation)),
+      push_constant_bytes_(push_constant_bytes),
+      set_layout_(nullptr),
+      pipeline_layout_(nullptr),
+      pool_(nullptr),
+      pipeline_(nullptr) {
+    std::vector<vk::DescriptorSetLayoutBinding> bindings;
+    for (std::uint32_t b = 0; b < buffer_count; ++b)
+        bindings.push_back({.binding = b, .descriptorType = vk::DescriptorType::eStorageBuffer, .descriptorCount = 1,
+                            .stageFlags = vk::ShaderStageFlagBits::eCompute});
+    set_layout_ = vk::raii::DescriptorSetLayout(
+        context.device(), vk::DescriptorSetLayoutCreateInfo{.bindingCount = buffer_count, .pBindings = bindings.data()});
+    vk::PushConstantRange range{.stageFlags = vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_constant_bytes};
+    vk::DescriptorSetLayout layouts[] = {*set_layout_};
+    pipeline_layout_ = vk::raii::PipelineLayout(
+        context.device(), vk::PipelineLayoutCreateInfo{.setLayoutCount = 1, .pSetLayouts = layouts,
+                                                       .pushConstantRangeCount = push_constant_bytes ? 1u : 0u,
+                                                       .pPushConstantRanges = &range});
+    constexpr std::uint32_t kMaxSets = 16;
+    vk::DescriptorPoolSize pool_size{.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = kMaxSets * buffer_count};
+    pool_ = vk::raii::DescriptorPool(context.device(),
+                                     vk::DescriptorPoolCreateInfo{.flags = vk::DescriptorPoolCreateFlagBits::eFreeDescriptorSet,
+                                                                  .maxSets = kMaxSets, .poolSizeCount = 1, .pPoolSizes = &pool_size});
+
+    vk::raii::ShaderModule module(context.device(),
+                                  vk::ShaderModuleCreateInfo{.codeSize = spirv.size_bytes(), .pCode = spirv.data()});
+    std::vector<vk::SpecializationMapEntry> entries;
+    for (std::uint32_t i = 0; i < specialisation_.size(); ++i)
+        entries.push_back({.constantID = i, .offset = i * 4u, .size = 4});
+    vk::SpecializationInfo spec{.mapEntryCount = std::uint32_t(entries.size()), .pMapEntries = entries.data(),
+                                .dataSize = specialisation_.size() * 4, .pData = specialisation_.data()};
+    vk::ComputePipelineCreateInfo info{
+        .stage = {.stage = vk::ShaderStageFlagBits::eCompute, .module = *module, .pName = "main", .pSpecializationInfo = &spec},
+        .layout = *pipeline_layout_};
+    pipeline_ = vk::raii::Pipeline(context.device(), nullptr, info);
+}
+
+vk::raii::DescriptorSet Kernel::bind(const std::vector<const Buffer*>& buffers) {
+    vk::DescriptorSetLayout layouts[] = {*set_layout_};
+    vk::raii::DescriptorSets sets(context_.device(),
+                                  vk::DescriptorSetAllocateInfo{.descriptorPool = *pool_, .descriptorSetCount = 1, .pSetLayouts = layouts});
+    vk::raii::DescriptorSet set = std::move(sets.front());
+    std::vector<vk::DescriptorBufferInfo> infos;
+    for (const Buffer* b : buffers) infos.push_back({.buffer = b->handle(), .offset = 0, .range = b->size()});
+    std::vector<vk::WriteDescriptorSet> writes;
+    for (std::uint32_t i = 0; i < infos.size(); ++i)
+        writes.push_back({.dstSet = *set, .dstBinding = i, .descriptorCount = 1,
+                          .descriptorType = vk::DescriptorType::eStorageBuffer, .pBufferInfo = &infos[i]});
+    context_.device().updateDescriptorSets(writes, nullptr);
+    return set;
+}
+
+Sequence::Sequence(Context& context)
+    : context_(context),
+      pool_(context.device(), vk::CommandPoolCreateInfo{.flags = vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
+                                                        .queueFamilyIndex = context.queue_family()}),
+      commands_(std::move(vk::raii::CommandBuffers(context.device(), vk::CommandBufferAllocateInfo{
+                                                                         .commandPool = *pool_,
+                                                                         .level = vk::CommandBufferLevel::ePrimary,
+                                                                         .commandBufferCount = 1})
+                              .front())),
+      fence_(context.device(), vk::FenceCreateInfo{}) {
+    commands_.begin(vk::CommandBufferBeginInfo{.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+}
+
+void Sequence::fill_zero(const Buffer& buffer, vk::DeviceSize bytes) {
+    commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), 0u);
+}
+
+void Sequence::dispatch_raw(Kernel& kernel, const vk::raii::DescriptorSet& set, void* push, std::uint32_t bytes,
+                            std::uint32_t invocations) {
+    commands_.bindPipeline(vk::PipelineBindPoint::eCompute, *kernel.pipeline_);
+    commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set}, nullptr);
+    const std::uint32_t group = kernel.workgroup_size();
+    const std::uint32_t max_groups = std::min<std::uint32_t>(context_.selected().max_workgroup_count_x, 65535u);
+    const std::uint32_t per_dispatch = max_groups * group;
+    auto* words = static_cast<std::uint32_t*>(push);  // words[0] = base, words[1] = count
+    const std::uint32_t caller_base = words[0];
+    for (std::uint32_t done = 0; done < invocations; done += per_dispatch) {
+        std::uint32_t count = std::min(per_dispatch, invocations - done);
+        words[0] = caller_base + done;
+        words[1] = count;
+        commands_.pushConstants<std::uint8_t>(*kernel.pipeline_layout_, vk::ShaderStageFlagBits::eCompute, 0,
+                                              std::span(static_cast<const std::uint8_t*>(push), bytes));
+        commands_.dispatch((count + group - 1) / group, 1, 1);
+    }
+}
+
+void Sequence::barrier() {
+    vk::MemoryBarrier memory{.srcAccessMask = vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
+                             .dstAccessMask = vk::AccessFlagBits::eShaderRead | vk::AccessFlagBits::eShaderWrite |
+                                              vk::AccessFlagBits::eTransferRead | vk::AccessFlagBits::eTransferWrite};
+    commands_.pipelineBarrier(vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer,
+                              vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer, {}, memory,
+                              nullptr, nullptr);
+}
+
+void Sequence::barrier_to_host() {
+    vk::MemoryBarrier memory{.srcAccessMask = vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
+                             .dstAccessMask = vk::AccessFlagBits::eHostRead};
+    commands_.pipelineBarrier(vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer,
+                              vk::PipelineStageFlagBits::eHost, {}, memory, nullptr, nullptr);
+}
+
+void Sequence::submit_and_wait() {
+    commands_.end();
+    vk::CommandBuffer buffers[] = {*commands_};
+    context_.queue().submit(vk::SubmitInfo{.commandBufferCount = 1, .pCommandBuffers = buffers}, *fence_);
+    auto result = context_.device().waitForFences({*fence_}, VK_TRUE, UINT64_MAX);
+    if (result != vk::Result::eSuccess) throw Error(fmt::format("{}: waiting for the GPU failed", context_.selected().name));
+    context_.device().resetFences({*fence_});
+    commands_.reset();
+    commands_.begin(vk::CommandBufferBeginInfo{.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+}
+
+}  // namespace amhv::gpu

@@ -1,0 +1,47 @@
+#include "support.hpp"
+
+#include <array>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+namespace amhv::test {
+
+gpu::Context& context() {
+    static gpu::Context instance(gpu::ContextOptions{.validation = true});
+    return instance;
+}
+
+void expect_no_validation_messages() {
+    static std::size_t seen = 0;
+    auto messages = context().validation_messages();
+    for (std::size_t i = seen; i < messages.size(); ++i) ADD_FAILURE() << "Vulkan validation: " << messages[i];
+    seen = messages.size();
+}
+
+TempDir::TempDir() {
+    static std::mt19937_64 rng(std::random_device{}());
+    path_ = std::filesystem::temp_directory_path() / ("amhv-test-" + std::to_string(rng()));
+    std::filesystem::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+}
+
+std::filesystem::path source_dir() { return AMHV_SOURCE_DIR; }
+
+CommandResult run_amhv(const std::string& arguments) {
+    std::string command = std::string("'") + AMHV_BINARY + "' " + arguments + " 2>&1";
+    std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+    CommandResult result{-1, {}};
+    if (!pipe) return result;
+    std::array<char, 4096> buffer{};
+    while (std::size_t n = std::fread(buffer.data(), 1, buffer.size(), pipe.get())) result.output.append(buffer.data(), n);
+    int status = pclose(pipe.release());
+    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return result;
+}
+
+}  // namespace amhv::test
