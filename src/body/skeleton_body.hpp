@@ -1,0 +1,26 @@
+#pragma once
+// A closed body mesh built around a skeleton's bones: one capsule per bone with a radius that
+// looks like a person, so the non-zero winding voxelisation sees one solid body.
+#include "core/geometry.hpp"
+#include "io/bvh.hpp"
+#include "io/mesh_sequence.hpp"
+
+namespace amhv {
+
+// Radius in metres of the capsule around the bone from `parent` to `child` (CMU joint names;
+// other skeletons fall back to matching words such as "Head", "Hand", "Leg").
+double bone_radius(const std::string& parent, const std::string& child);
+
+struct SkeletonBodyOptions {
+    UnitsAndAxes units{0.0564444, UpAxis::Y};  // CMU defaults
+    int segments = 12;                          // around each capsule
+    int cap_rings = 4;
+};
+
+// The body at BVH frame `frame`, in metres, z up.
+TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options);
+
+// Body meshes for BVH frames range.first..range.last.
+MeshSequence skeleton_body_sequence(const BvhMotion& motion, const FrameRange& range, const SkeletonBodyOptions& options);
+
+}  // namespace amhv

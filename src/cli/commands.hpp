@@ -1,0 +1,14 @@
+#pragma once
+// The `amhv` command line: one function per subcommand, all registered on one CLI11 app.
+#include <CLI/CLI.hpp>
+
+namespace amhv::cli {
+
+// Registers the subcommands; the returned callbacks run after parsing.
+void add_devices_command(CLI::App& app);
+void add_mhv_command(CLI::App& app);
+
+// Runs the whole program; returns the exit code. Every failure becomes one "amhv: error: ..." line.
+int run(int argc, char** argv);
+
+}  // namespace amhv::cli

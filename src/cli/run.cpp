@@ -1,0 +1,42 @@
+#include <exception>
+#include <iostream>
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "cli/commands.hpp"
+#include "core/error.hpp"
+
+namespace amhv::cli {
+
+int run(int argc, char** argv) {
+    auto logger = spdlog::stderr_color_mt("amhv");
+    logger->set_pattern("amhv: %^%l%$: %v");
+    spdlog::set_default_logger(logger);
+
+    CLI::App app{"amhv: spatiotemporal editing of two separately captured performances with augmented Motion History Volumes"};
+    app.set_version_flag("--version", std::string("amhv ") + AMHV_VERSION);
+    app.require_subcommand(1);
+    bool quiet = false, verbose = false;
+    app.add_flag("-q,--quiet", quiet, "Only errors");
+    app.add_flag("-v,--verbose", verbose, "More detail");
+    app.parse_complete_callback([&] {
+        spdlog::set_level(quiet ? spdlog::level::err : verbose ? spdlog::level::debug : spdlog::level::info);
+    });
+    add_devices_command(app);
+    add_mhv_command(app);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    } catch (const Error& e) {
+        std::cerr << "amhv: error: " << e.what() << '\n';
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "amhv: error: " << e.what() << '\n';
+        return 1;
+    }
+    return 0;
+}
+
+}  // namespace amhv::cli
