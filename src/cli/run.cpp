@@ -27,8 +27,15 @@ int run(int argc, char** argv) {
     add_mhv_command(app);
     try {
         app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
+    } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "amhv: error: " << e.what() << " (see --help)\n";
+        return e.get_exit_code() ? e.get_exit_code() : 2;
     } catch (const Error& e) {
         std::cerr << "amhv: error: " << e.what() << '\n';
         return 1;

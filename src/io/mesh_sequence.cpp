@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstring>
+#include <fstream>
 #include <cmath>
 #include <regex>
 #include <sstream>
@@ -144,11 +146,91 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
     return selected;
 }
 
+namespace {
+
+std::string lower_extension(const fs::path& path) {
+    auto ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext;
+}
+
+// Structural checks OpenMesh does not make before it allocates: a header that promises more data
+// than the file holds would make it allocate without bound or read garbage. Text formats are
+// scanned for non-finite coordinates, which OpenMesh would otherwise silently drop.
+void precheck_mesh_file(const fs::path& path) {
+    const std::string source = path.string();
+    const auto size = fs::file_size(path);
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail(source, "cannot open file (permission denied?)");
+    const std::string ext = lower_extension(path);
+    if (ext == ".ply") {
+        std::string line, format;
+        std::uint64_t vertices = 0, faces = 0, header_bytes = 0, lines = 0;
+        bool ended = false;
+        while (header_bytes < 65536 && std::getline(in, line)) {
+            header_bytes += line.size() + 1;
+            if (!line.empty() && line.back() == '\r') line.pop_back();
+            std::istringstream words(line);
+            std::string word, kind;
+            words >> word;
+            if (word == "format") words >> format;
+            if (word == "element") {
+                std::uint64_t count = 0;
+                words >> kind >> count;
+                if (kind == "vertex") vertices = count;
+                if (kind == "face") faces = count;
+            }
+            if (word == "end_header") {
+                ended = true;
+                break;
+            }
+        }
+        if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
+        if (format == "ascii") {
+            while (std::getline(in, line)) ++lines;
+            if (lines < vertices + faces) fail(source, "malformed PLY: {} vertices and {} faces declared but only {} lines follow", vertices, faces, lines);
+        } else if (header_bytes + vertices * 12 + faces * 13 > size) {
+            fail(source, "malformed PLY: {} vertices and {} faces need at least {} bytes but the file has {}", vertices, faces,
+                 header_bytes + vertices * 12 + faces * 13, size);
+        }
+    } else if (ext == ".stl") {
+        char head[84] = {};
+        in.read(head, 84);
+        bool ascii = std::string(head, std::min<std::size_t>(5, std::size_t(in.gcount()))) == "solid";
+        if (!ascii) {
+            if (in.gcount() < 84) fail(source, "malformed binary STL: shorter than its 84-byte header");
+            std::uint32_t count = 0;
+            std::memcpy(&count, head + 80, 4);
+            if (84 + std::uint64_t(count) * 50 != size)
+                fail(source, "malformed binary STL: {} triangles need {} bytes but the file has {}", count, 84 + std::uint64_t(count) * 50, size);
+        }
+    } else if (ext == ".obj") {
+        std::string line;
+        std::uint64_t number = 0, vertex = 0;
+        while (std::getline(in, line)) {
+            ++number;
+            if (line.size() < 2 || line[0] != 'v' || !std::isspace(static_cast<unsigned char>(line[1]))) continue;
+            std::istringstream words(line.substr(2));
+            std::string word;
+            for (int i = 0; i < 3 && words >> word; ++i) {
+                char* end = nullptr;
+                double value = std::strtod(word.c_str(), &end);
+                if (end == word.c_str() || !std::isfinite(value))
+                    fail(source + ":" + std::to_string(number), "vertex {} has a non-finite coordinate '{}'", vertex, word);
+            }
+            ++vertex;
+        }
+    }
+}
+
+}  // namespace
+
 TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
     using OMesh = OpenMesh::TriMesh_ArrayKernelT<>;
     std::error_code ec;
     if (!fs::exists(path, ec)) fail(path.string(), "file does not exist");
     if (!fs::is_regular_file(path, ec)) fail(path.string(), "is not a regular file");
+    precheck_mesh_file(path);
     OMesh mesh;
     std::ostringstream diagnostics;
     OpenMesh::IO::Options options;

@@ -1,0 +1,79 @@
+// B1 - voxelisation throughput on a human-sized mesh sequence: 120 frames of CMU subject 18
+// (walking into a handshake, 120 fps) as capsule bodies (~11k triangles per frame), at 10 mm and
+// 5 mm, on the Vulkan device amhv picks (lavapipe on CI machines) and with the single-threaded CPU
+// reference in the same run. Reports frames/s and voxel-frames/s (grid voxels x frames per second)
+// with mean, median and spread over repetitions.
+//
+//   build/tools/amhv_bench_voxelise [--benchmark_repetitions=N]
+#include <memory>
+
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+
+#include "body/skeleton_body.hpp"
+#include "core/voxelise.hpp"
+#include "gpu/voxelise_vulkan.hpp"
+#include "io/bvh.hpp"
+#include "reference/voxelise_reference.hpp"
+
+namespace {
+
+using namespace amhv;
+
+const MeshSequence& human_sequence() {
+    static MeshSequence sequence = [] {
+        BvhMotion motion = read_bvh(std::string(AMHV_SOURCE_DIR) + "/data/cmu/18_01.bvh");
+        return skeleton_body_sequence(motion, {1, 120}, {});
+    }();
+    return sequence;
+}
+
+VoxelisationInput prepared(double voxel) {
+    std::vector<const MeshFrame*> frames;
+    for (const auto& f : human_sequence().frames) frames.push_back(&f);
+    return prepare_voxelisation(frames, grid_covering(human_sequence().bounds(), voxel, "benchmark"));
+}
+
+gpu::Context& context() {
+    static gpu::Context instance;
+    return instance;
+}
+
+void report(benchmark::State& state, const VoxelisationInput& input, const std::string& label) {
+    const double frames = double(input.frames.size());
+    state.counters["frames/s"] = benchmark::Counter(frames, benchmark::Counter::kIsIterationInvariantRate);
+    state.counters["voxel_frames/s"] =
+        benchmark::Counter(frames * double(input.grid.voxel_count()), benchmark::Counter::kIsIterationInvariantRate);
+    std::size_t triangles = 0;
+    for (const auto& f : input.frames) triangles += f.triangles.size();
+    state.counters["triangles/frame"] = double(triangles) / frames;
+    state.SetLabel(fmt::format("{} | grid {}x{}x{}", label, input.grid.dims[0], input.grid.dims[1], input.grid.dims[2]));
+}
+
+void B1_voxelise_vulkan(benchmark::State& state) {
+    auto input = prepared(double(state.range(0)) / 1000.0);
+    gpu::VulkanVoxeliser voxeliser(context());
+    for (auto _ : state) {
+        Amhv volume = voxelise(input, voxeliser);
+        benchmark::DoNotOptimize(volume.mask().data());
+    }
+    report(state, input, voxeliser.name());
+}
+
+void B1_voxelise_cpu_reference(benchmark::State& state) {
+    auto input = prepared(double(state.range(0)) / 1000.0);
+    ReferenceVoxeliser voxeliser;
+    for (auto _ : state) {
+        Amhv volume = voxelise(input, voxeliser);
+        benchmark::DoNotOptimize(volume.mask().data());
+    }
+    report(state, input, voxeliser.name());
+}
+
+// Arguments: voxel edge in millimetres.
+BENCHMARK(B1_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->UseRealTime();
+BENCHMARK(B1_voxelise_cpu_reference)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
