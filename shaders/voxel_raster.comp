@@ -18,6 +18,10 @@ struct Triangle {
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer WorkItems { uvec2 work_items[]; };  // (triangle, tile x | tile y << 16)
 layout(std430, set = 0, binding = 2) buffer Deltas { int deltas[]; };
+// Per column of the slab: lowest and highest layer that received a crossing in this batch, so the
+// column pass can skip empty columns and stop early.
+layout(std430, set = 0, binding = 3) buffer FirstLayer { int first_layer[]; };
+layout(std430, set = 0, binding = 4) buffer LastLayer { int last_layer[]; };
 
 layout(push_constant) uniform Params {
     uint work_base;
@@ -70,6 +74,9 @@ void main() {
             uint index = ((uint(frame_slot) * uint(params.slab_layers) + uint(slab_z)) * uint(params.ny) + uint(y))
                          * uint(params.nx) + uint(x);
             atomicAdd(deltas[index], winding_change);
+            uint column = uint(y) * uint(params.nx) + uint(x);
+            atomicMin(first_layer[column], slab_z);
+            atomicMax(last_layer[column], slab_z);
         }
     }
 }

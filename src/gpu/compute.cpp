@@ -108,8 +108,8 @@ Sequence::Sequence(Context& context)
     commands_.begin(vk::CommandBufferBeginInfo{.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
 }
 
-void Sequence::fill_zero(const Buffer& buffer, vk::DeviceSize bytes) {
-    commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), 0u);
+void Sequence::fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pattern) {
+    commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), pattern);
 }
 
 void Sequence::dispatch_raw(Kernel& kernel, const vk::raii::DescriptorSet& set, void* push, std::uint32_t bytes,

@@ -58,7 +58,8 @@ class Sequence {
 public:
     explicit Sequence(Context& context);
 
-    void fill_zero(const Buffer& buffer, vk::DeviceSize bytes);
+    // Fills the first `bytes` of `buffer` with the 32-bit `pattern`.
+    void fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pattern);
     // Dispatches `invocations` invocations in as many dispatches as the device's group-count limit
     // needs. `push` must start with two uint32 (base, count), which this fills in per dispatch.
     template <typename Push>
