@@ -18,19 +18,13 @@
 namespace amhv {
 namespace {
 
-VoxelisationInput prepare(const MeshSequence& sequence, double voxel) {
-    std::vector<const MeshFrame*> frames;
-    for (const auto& f : sequence.frames) frames.push_back(&f);
-    return prepare_voxelisation(frames, grid_covering(sequence.bounds(), voxel, "test"));
-}
-
 TEST(AmhvAnalytic, MovingSphereSweptVolumeAndTiming) {
     const double r = 0.2, h = 0.01, step = 0.01;
     const int frames = 60;
     const Vec3 start(0.0, 0.0, 1.0), velocity(step, 0.0, 0.0);
     MeshSequence sequence;
     for (int t = 0; t < frames; ++t) sequence.frames.push_back({shapes::sphere(start + t * velocity, r, 48, 64), ""});
-    auto input = prepare(sequence, h);
+    auto input = prepare_voxelisation(sequence, h);
     gpu::VulkanVoxeliser vulkan(test::context());
     Amhv volume = voxelise(input, vulkan);
     test::expect_no_validation_messages();
@@ -95,7 +89,7 @@ TEST(AmhvAnalytic, RealBodyFramesMatchReferenceAt5mm) {
     BvhMotion motion = read_bvh(test::source_dir() / "data/cmu/18_01.bvh");
     MeshSequence sequence = skeleton_body_sequence(motion, {40, 87}, {});
     for (const auto& frame : sequence.frames) ASSERT_TRUE(frame.mesh.is_closed());
-    auto input = prepare(sequence, 0.005);
+    auto input = prepare_voxelisation(sequence, 0.005);
     ReferenceVoxeliser reference;
     gpu::VulkanVoxeliser vulkan(test::context());
     Amhv expected = voxelise(input, reference);

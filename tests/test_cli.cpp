@@ -67,7 +67,7 @@ TEST(Cli, MhvWritesVolumeJsonAndExrSlices) {
     EXPECT_EQ(json["gap_voxels"], 0);
     EXPECT_NEAR(json["root_m"][2].get<double>(), 0.30, 0.02);  // y-up input became z-up
     EXPECT_TRUE(json.contains("timings_s"));
-    EXPECT_NE(json["device"].get<std::string>().find("llvmpipe") == std::string::npos && json["device"] == "cpu", true);
+    EXPECT_NE(json["device"], "cpu");  // the default backend is vulkan: the device is named
 
     Amhv volume = read_amhv(out / "mhv.amhv");
     EXPECT_EQ(volume.frames(), 8);

@@ -20,12 +20,6 @@ MeshSequence sequence_of(std::vector<TriangleMesh> meshes) {
     return sequence;
 }
 
-VoxelisationInput prepare(const MeshSequence& sequence, double voxel) {
-    std::vector<const MeshFrame*> frames;
-    for (const auto& f : sequence.frames) frames.push_back(&f);
-    return prepare_voxelisation(frames, grid_covering(sequence.bounds(), voxel, "test"));
-}
-
 struct Both {
     Amhv reference, gpu;
     gpu::VulkanVoxeliser::Plan plan;
@@ -62,7 +56,7 @@ TEST(Voxelise, ShapesAreClosedAndOutward) {
 TEST(Voxelise, SphereMatchesReferenceAndVolume) {
     const double r = 0.3, h = 0.01;
     auto mesh = shapes::sphere({0.1, -0.2, 1.0}, r, 48, 64);
-    auto input = prepare(sequence_of({mesh}), h);
+    auto input = prepare_voxelisation(sequence_of({mesh}), h);
     auto both = voxelise_both(input);
     expect_identical(both);
     double expected = shapes::signed_volume(mesh) / (h * h * h);
@@ -73,7 +67,7 @@ TEST(Voxelise, BoxIsExact) {
     // Faces halfway between voxel centres: the count is exact.
     const double h = 0.01;
     auto mesh = shapes::box({0.0, 0.0, 0.0}, {0.40, 0.30, 0.20});
-    auto both = voxelise_both(prepare(sequence_of({mesh}), h));
+    auto both = voxelise_both(prepare_voxelisation(sequence_of({mesh}), h));
     expect_identical(both);
     EXPECT_EQ(occupied(both.gpu), 40u * 30u * 20u);
 }
@@ -83,7 +77,7 @@ TEST(Voxelise, OverlappingCapsulesAreTheirUnion) {
     TriangleMesh body = shapes::capsule({0, 0, 0}, {0.4, 0, 0}, 0.1, 12, 32);
     body.append(shapes::capsule({0.2, -0.2, 0}, {0.2, 0.2, 0.05}, 0.08, 12, 32));
     ASSERT_TRUE(body.is_closed());
-    auto both = voxelise_both(prepare(sequence_of({body}), h));
+    auto both = voxelise_both(prepare_voxelisation(sequence_of({body}), h));
     expect_identical(both);
     // The crossing point of the two capsules is inside (winding 2), not cancelled.
     auto grid = both.gpu.grid();
@@ -96,7 +90,7 @@ TEST(Voxelise, OverlappingCapsulesAreTheirUnion) {
 TEST(Voxelise, TorusHasAHole) {
     const double h = 0.01;
     auto mesh = shapes::torus({0, 0, 0.5}, 0.3, 0.1, 64, 32);
-    auto both = voxelise_both(prepare(sequence_of({mesh}), h));
+    auto both = voxelise_both(prepare_voxelisation(sequence_of({mesh}), h));
     expect_identical(both);
     auto grid = both.gpu.grid();
     Vec3 hole = (Vec3(0.0, 0.0, 0.5) - grid.origin) / h;
@@ -120,7 +114,7 @@ TEST(Voxelise, RandomClosedMeshesMatchReference) {
         }
         frames.push_back(frame);
     }
-    auto both = voxelise_both(prepare(sequence_of(frames), 0.007));
+    auto both = voxelise_both(prepare_voxelisation(sequence_of(frames), 0.007));
     expect_identical(both);
     EXPECT_GT(occupied(both.gpu), 10000u);
 }
@@ -135,7 +129,7 @@ TEST(Voxelise, SplittingAndLargeTrianglesMatchReference) {
         frame.append(shapes::sphere({0.8 + 0.01 * f, 0.8, 0.15}, 0.1, 16, 24));
         frames.push_back(frame);
     }
-    auto input = prepare(sequence_of(frames), 0.005);
+    auto input = prepare_voxelisation(sequence_of(frames), 0.005);
     auto both = voxelise_both(input, 2u << 20);
     EXPECT_GT(both.plan.slabs, 4);
     EXPECT_LT(both.plan.frames_per_batch, 32);

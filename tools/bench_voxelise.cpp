@@ -28,12 +28,6 @@ const MeshSequence& human_sequence() {
     return sequence;
 }
 
-VoxelisationInput prepared(double voxel) {
-    std::vector<const MeshFrame*> frames;
-    for (const auto& f : human_sequence().frames) frames.push_back(&f);
-    return prepare_voxelisation(frames, grid_covering(human_sequence().bounds(), voxel, "benchmark"));
-}
-
 gpu::Context& context() {
     static gpu::Context instance;
     return instance;
@@ -51,7 +45,7 @@ void report(benchmark::State& state, const VoxelisationInput& input, const std::
 }
 
 void B1_voxelise_vulkan(benchmark::State& state) {
-    auto input = prepared(double(state.range(0)) / 1000.0);
+    auto input = prepare_voxelisation(human_sequence(), double(state.range(0)) / 1000.0);
     gpu::VulkanVoxeliser voxeliser(context());
     for (auto _ : state) {
         Amhv volume = voxelise(input, voxeliser);
@@ -61,7 +55,7 @@ void B1_voxelise_vulkan(benchmark::State& state) {
 }
 
 void B1_voxelise_cpu_reference(benchmark::State& state) {
-    auto input = prepared(double(state.range(0)) / 1000.0);
+    auto input = prepare_voxelisation(human_sequence(), double(state.range(0)) / 1000.0);
     ReferenceVoxeliser voxeliser;
     for (auto _ : state) {
         Amhv volume = voxelise(input, voxeliser);

@@ -38,6 +38,12 @@ VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& fram
     return input;
 }
 
+VoxelisationInput prepare_voxelisation(const MeshSequence& sequence, double voxel) {
+    std::vector<const MeshFrame*> frames;
+    for (const auto& frame : sequence.frames) frames.push_back(&frame);
+    return prepare_voxelisation(frames, grid_covering(sequence.bounds(), voxel, sequence.source));
+}
+
 namespace {
 
 // Separating-axis triangle/box overlap (Akenine-Moeller), in voxel units on exact inputs.

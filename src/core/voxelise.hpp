@@ -30,6 +30,8 @@ fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid);
 
 // Quantises `frames` into `grid` (which must contain them) and classifies each as closed or open.
 VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid);
+// Every frame of `sequence` in the grid of edge `voxel` covering it (grid_covering).
+VoxelisationInput prepare_voxelisation(const MeshSequence& sequence, double voxel);
 
 class Voxeliser {
 public:

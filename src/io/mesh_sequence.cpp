@@ -64,9 +64,14 @@ FrameRange parse_frame_range(const std::string& text, const std::string& what) {
 
 namespace {
 
-bool is_mesh_file(const fs::path& p) {
-    auto ext = p.extension().string();
+std::string lower_extension(const fs::path& path) {
+    auto ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext;
+}
+
+bool is_mesh_file(const fs::path& p) {
+    const std::string ext = lower_extension(p);
     return ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl";
 }
 
@@ -147,12 +152,6 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
 }
 
 namespace {
-
-std::string lower_extension(const fs::path& path) {
-    auto ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return ext;
-}
 
 // Structural checks OpenMesh does not make before it allocates: a header that promises more data
 // than the file holds would make it allocate without bound or read garbage. Text formats are
