@@ -1,0 +1,154 @@
+#include "reference/sweep_reference.hpp"
+
+#include <cmath>
+#include <optional>
+
+namespace amhv {
+
+namespace {
+
+std::array<std::int64_t, 3> lattice_origin(const VoxelGrid& grid) {
+    return {std::llround(grid.origin.x() / grid.voxel), std::llround(grid.origin.y() / grid.voxel),
+            std::llround(grid.origin.z() / grid.voxel)};
+}
+
+// An occupied voxel of a volume on the A side, with its global lattice position.
+struct LatticeVoxel {
+    std::size_t index;
+    std::int64_t gx, gy, gz;
+};
+
+std::vector<LatticeVoxel> occupied_voxels(const Amhv& volume) {
+    std::vector<LatticeVoxel> list;
+    const VoxelGrid& g = volume.grid();
+    auto o = lattice_origin(g);
+    for (int z = 0; z < g.dims[2]; ++z)
+        for (int y = 0; y < g.dims[1]; ++y)
+            for (int x = 0; x < g.dims[0]; ++x) {
+                std::size_t v = g.index(x, y, z);
+                if (volume.any(v)) list.push_back({v, o[0] + x, o[1] + y, o[2] + z});
+            }
+    return list;
+}
+
+// The pull mapping of one pose into one volume of B.
+class PoseLookup {
+public:
+    PoseLookup(const SweepProblem& problem, int i, int j, int k)
+        : i_(i), j_(j), trig_(problem.trig(k)), root_a_(problem.root_a_q()), root_b_(problem.root_b_q()) {}
+
+    // B's voxel of `volume` under A's lattice voxel `u`, if inside B's grid.
+    std::optional<std::size_t> operator()(const Amhv& volume, const LatticeVoxel& u) const {
+        auto source = posemap::source_column(u.gx - i_, u.gy - j_, trig_, root_a_[0], root_a_[1], root_b_[0], root_b_[1]);
+        const VoxelGrid& g = volume.grid();
+        auto o = lattice_origin(g);
+        std::int64_t x = source.x - o[0], y = source.y - o[1], z = u.gz - o[2];  // z is kept
+        if (x < 0 || y < 0 || z < 0 || x >= g.dims[0] || y >= g.dims[1] || z >= g.dims[2]) return std::nullopt;
+        return g.index(int(x), int(y), int(z));
+    }
+
+private:
+    int i_, j_;
+    posemap::Trig trig_;
+    std::array<std::int64_t, 2> root_a_, root_b_;
+};
+
+bool satisfies(SurfaceLabel label, int t_start, int t_end, int last_frame, int tolerance) {
+    switch (label) {
+        case SurfaceLabel::Plus: return t_end >= last_frame - tolerance;  // t_end = T_end, within epsilon
+        case SurfaceLabel::Minus: return t_start <= tolerance;           // t_start = T_start = 0, within epsilon
+        default: return true;
+    }
+}
+
+struct ASide {
+    std::vector<LatticeVoxel> interest, fidelity, whole, cone;
+};
+
+PoseOutcome evaluate(const SweepProblem& p, const ASide& a, int i, int j, int k) {
+    PoseLookup lookup(p, i, j, k);
+    const int frames = p.frames();
+    const int last = frames - 1;
+
+    // Contact (eq. 3): K = V(I^A) n V(I^B) is not empty.
+    std::vector<std::pair<std::size_t, std::size_t>> contact;  // (A voxel, B voxel) of K
+    for (const LatticeVoxel& u : a.interest)
+        if (auto vb = lookup(p.b.interest, u); vb && p.b.interest.any(*vb)) contact.emplace_back(u.index, *vb);
+    if (contact.empty()) return PoseOutcome::FailsContact;
+
+    // Interaction dictionary (eq. 4-11).
+    const Amhv& ia = p.a.interest;
+    const Amhv& ib = p.b.interest;
+    if (!p.type.lateral_pair()) {
+        for (auto [va, vb] : contact)
+            if (!satisfies(p.type.a, ia.t_start(va), ia.t_end(va), last, p.tolerance) ||
+                !satisfies(p.type.b, ib.t_start(vb), ib.t_end(vb), last, p.tolerance))
+                return PoseOutcome::FailsDictionary;
+    } else if (p.type.variant == 'a' || p.type.variant == 'b') {
+        // (a): the parts share a voxel at every frame; (b): at some frame.
+        int frames_touching = 0;
+        for (int t = 0; t < frames; ++t) {
+            bool touching = false;
+            for (auto [va, vb] : contact)
+                if (ia.occupied(va, t) && ib.occupied(vb, t)) {
+                    touching = true;
+                    break;
+                }
+            frames_touching += touching;
+        }
+        bool ok = p.type.variant == 'a' ? frames_touching == frames : frames_touching > 0;
+        if (!ok) return PoseOutcome::FailsDictionary;
+    } else {
+        // (c): on every contact voxel B left before A arrived.
+        for (auto [va, vb] : contact)
+            if (!(ia.t_start(va) > ib.t_end(vb))) return PoseOutcome::FailsDictionary;
+    }
+
+    // Fidelity (eq. 15): no voxel of N^A and N^B at the same frame.
+    for (const LatticeVoxel& u : a.fidelity) {
+        auto vb = lookup(p.b.fidelity, u);
+        if (!vb) continue;
+        for (int t = 0; t < frames; ++t)
+            if (p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t)) return PoseOutcome::FailsFidelity;
+    }
+
+    // Mutual visibility (eq. 14): A's cone holds a voxel of W^B and B's moved cone a voxel of W^A.
+    if (p.visibility) {
+        bool a_sees_b = false, b_sees_a = false;
+        for (const LatticeVoxel& u : a.cone)
+            if (auto vb = lookup(p.b.whole, u); vb && p.b.whole.any(*vb)) {
+                a_sees_b = true;
+                break;
+            }
+        for (const LatticeVoxel& u : a.whole)
+            if (auto vb = lookup(p.b.view_cone, u); vb && p.b.view_cone.any(*vb)) {
+                b_sees_a = true;
+                break;
+            }
+        if (!a_sees_b || !b_sees_a) return PoseOutcome::FailsVisibility;
+    }
+    return PoseOutcome::Solution;
+}
+
+}  // namespace
+
+SweepResult ReferenceSweeper::sweep(const SweepProblem& problem) { return sweep_angles(problem, 0, problem.range.angles); }
+
+SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int first_angle, int angle_count) {
+    validate(problem);
+    SweepResult result;
+    const PoseRange& r = problem.range;
+    result.range = r;
+    result.outcomes.assign(r.size(), PoseOutcome::FailsContact);
+    ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}};
+    if (problem.visibility) a.cone = occupied_voxels(problem.a.view_cone);
+    for (int k = first_angle; k < std::min(r.angles, first_angle + angle_count); ++k)
+        for (int j = r.j_first; j <= r.j_last; ++j)
+            for (int i = r.i_first; i <= r.i_last; ++i)
+                result.outcomes[(std::size_t(k) * r.height() + (j - r.j_first)) * r.width() + (i - r.i_first)] =
+                    evaluate(problem, a, i, j, k);
+    result.count();
+    return result;
+}
+
+}  // namespace amhv

@@ -1,0 +1,112 @@
+#version 450
+// One overlap test of the placement sweep (METHOD.md section 5): for every pose, does a column of
+// the static volume (A's side, on A's lattice) share a set bit with the column of the moving volume
+// (B's side) that the pull mapping puts under it? Every constraint is one or two such tests.
+//
+// One invocation handles one work item = (pose, block of rows x block of columns of the static
+// volume). The host sizes the blocks so that rows * columns * zwords * (1 + frames) stays under
+// lavapipe's per-invocation loop cap. Culling is exact: only rows and columns that are occupied in
+// the static volume and inside the moving volume's mapped bounding box are visited, and a column's
+// frames are only compared when the unions overlap (a coarse test that proves "no overlap").
+//
+// Result: mode ANY sets bit 0 of the pose's first flag word when any overlap exists; mode
+// PER_FRAME sets bit t of the pose's flag words for every frame t with an overlap.
+#extension GL_GOOGLE_include_directive : require
+#include "pose_map.glsl"
+
+layout(local_size_x_id = 0) in;
+layout(constant_id = 1) const int MAX_FRAME_WORDS = 16;
+
+layout(std430, set = 0, binding = 0) readonly buffer StaticBits { uint static_bits[]; };    // [y][x][slot][word]
+layout(std430, set = 0, binding = 1) readonly buffer StaticRows { ivec2 static_rows[]; };   // occupied x range per row
+layout(std430, set = 0, binding = 2) readonly buffer MovingBits { uint moving_bits[]; };    // [y][x][slot][word]
+struct Angle {
+    i64vec2 trig;  // cos, sin in fixed point
+    ivec4 bounds;  // moving volume's mapped columns at offset 0: x_first, y_first, x_last, y_last (global)
+};
+layout(std430, set = 0, binding = 3) readonly buffer Angles {
+    i64vec2 root_a;
+    i64vec2 root_b;
+    Angle angles[];
+};
+layout(std430, set = 0, binding = 4) readonly buffer Poses { ivec4 poses[]; };  // (angle, i, j, unused)
+layout(std430, set = 0, binding = 5) buffer Flags { uint flags[]; };
+
+const int MODE_ANY = 0;
+const int MODE_PER_FRAME = 1;
+
+layout(push_constant) uniform Params {
+    uint item_base;
+    uint item_count;
+    int static_x0, static_y0, static_nx, static_ny;
+    int moving_x0, moving_y0, moving_nx, moving_ny;
+    int slots, zwords, frames, mode;
+    int columns_per_item, rows_per_item, items_x, items_per_pose;
+    // Implicit poses (explicit_poses == 0): every (i, j) of the range for angles angle_first...
+    int range_i0, range_j0, range_ni, range_nj;
+    int angle_first, explicit_poses, flag_words, flag_offset;
+} params;
+
+void main() {
+    uint item = params.item_base + gl_GlobalInvocationID.x;
+    if (gl_GlobalInvocationID.x >= params.item_count) return;
+    uint pose = item / uint(params.items_per_pose);
+    int chunk = int(item % uint(params.items_per_pose));
+
+    ivec3 p;  // angle, i, j
+    if (params.explicit_poses != 0) {
+        p = poses[pose].xyz;
+    } else {
+        uint per_angle = uint(params.range_ni) * uint(params.range_nj);
+        uint rest = pose % per_angle;
+        p = ivec3(params.angle_first + int(pose / per_angle), params.range_i0 + int(rest % uint(params.range_ni)),
+                  params.range_j0 + int(rest / uint(params.range_ni)));
+    }
+    Angle angle = angles[p.x];
+    // The moving volume's mapped box at this pose, in the static volume's local columns.
+    ivec4 box = angle.bounds + ivec4(p.y, p.z, p.y, p.z) - ivec4(params.static_x0, params.static_y0, params.static_x0, params.static_y0);
+    int block_x = chunk % params.items_x, block_y = chunk / params.items_x;
+    int y_first = max(block_y * params.rows_per_item, box.y);
+    int y_last = min(min(block_y * params.rows_per_item + params.rows_per_item, params.static_ny) - 1, box.w);
+    int x_lo = max(block_x * params.columns_per_item, box.x);
+    int x_hi = min(min(block_x * params.columns_per_item + params.columns_per_item, params.static_nx) - 1, box.z);
+
+    uint found[MAX_FRAME_WORDS];
+    for (int w = 0; w < MAX_FRAME_WORDS; ++w) found[w] = 0u;
+    bool hit = false;
+    const uint column_words = uint(params.slots * params.zwords);
+    for (int y = y_first; y <= y_last && !hit; ++y) {
+        ivec2 row = static_rows[y];
+        int x_first = max(x_lo, row.x), x_last = min(x_hi, row.y);
+        for (int x = x_first; x <= x_last && !hit; ++x) {
+            i64vec2 source = source_column(int64_t(params.static_x0 + x - p.y), int64_t(params.static_y0 + y - p.z),
+                                           angle.trig, root_a, root_b);
+            int64_t bx = source.x - int64_t(params.moving_x0), by = source.y - int64_t(params.moving_y0);
+            if (bx < 0 || by < 0 || bx >= int64_t(params.moving_nx) || by >= int64_t(params.moving_ny)) continue;
+            uint s = (uint(y) * uint(params.static_nx) + uint(x)) * column_words;
+            uint m = (uint(by) * uint(params.moving_nx) + uint(bx)) * column_words;
+            bool unions_meet = false;
+            for (int w = 0; w < params.zwords; ++w)
+                if ((static_bits[s + uint(w)] & moving_bits[m + uint(w)]) != 0u) { unions_meet = true; break; }
+            if (!unions_meet) continue;
+            if (params.frames == 0) { hit = true; break; }
+            for (int t = 0; t < params.frames && !hit; ++t) {
+                uint slot = uint((1 + t) * params.zwords);
+                for (int w = 0; w < params.zwords; ++w) {
+                    if ((static_bits[s + slot + uint(w)] & moving_bits[m + slot + uint(w)]) != 0u) {
+                        if (params.mode == MODE_ANY) hit = true;
+                        else found[t >> 5] |= 1u << uint(t & 31);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    uint flag = uint(params.flag_offset) + pose * uint(params.flag_words);
+    if (params.mode == MODE_ANY) {
+        if (hit) atomicOr(flags[flag], 1u);
+    } else {
+        for (int w = 0; w < params.flag_words; ++w)
+            if (found[w] != 0u) atomicOr(flags[flag + uint(w)], found[w]);
+    }
+}

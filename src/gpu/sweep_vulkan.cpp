@@ -1,0 +1,284 @@
+#include "gpu/sweep_vulkan.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <memory>
+
+#include "core/error.hpp"
+#include "sweep/column_volume.hpp"
+#include "sweep_overlap.spv.h"
+
+namespace amhv::gpu {
+
+namespace {
+
+struct OverlapParams {
+    std::uint32_t item_base, item_count;
+    std::int32_t static_x0, static_y0, static_nx, static_ny;
+    std::int32_t moving_x0, moving_y0, moving_nx, moving_ny;
+    std::int32_t slots, zwords, frames, mode;
+    std::int32_t columns_per_item, rows_per_item, items_x, items_per_pose;
+    std::int32_t range_i0, range_j0, range_ni, range_nj;
+    std::int32_t angle_first, explicit_poses, flag_words, flag_offset;
+};
+static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
+
+struct GpuAngle {
+    std::int64_t trig[2];
+    std::int32_t bounds[4];
+};
+static_assert(sizeof(GpuAngle) == 32);
+
+constexpr std::int32_t kModeAny = 0, kModePerFrame = 1;
+
+// A column volume uploaded once; its angle table (used when it is the moving side) on demand.
+struct GpuVolume {
+    ColumnVolume columns;
+    std::unique_ptr<Buffer> bits, rows, angles;
+};
+
+enum class Want { Overlap, NoOverlap, EveryFrame };
+
+struct OverlapTest {
+    GpuVolume* fixed;   // A's side: its columns are visited
+    GpuVolume* moving;  // B's side: pulled under A's columns
+    int frames;         // 0: unions only
+    Want want;
+    std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
+    int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
+};
+
+struct Blocks {
+    int columns, rows, items_x, items_per_pose;
+};
+
+std::unique_ptr<Buffer> upload(Context& context, const void* data, std::size_t bytes) {
+    auto buffer = std::make_unique<Buffer>(context, std::max<std::size_t>(bytes, 16), Buffer::Memory::Host);
+    if (bytes) std::memcpy(buffer->mapped<std::uint8_t>().data(), data, bytes);
+    return buffer;
+}
+
+void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, std::uint64_t bytes) {
+    if (!buffer || buffer->size() < bytes) buffer = std::make_unique<Buffer>(context, std::max<std::uint64_t>(bytes, 4096), Buffer::Memory::Host);
+}
+
+}  // namespace
+
+VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
+    : context_(context),
+      options_(options),
+      overlap_(context, sweep_overlap_spv, 6, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}) {}
+
+std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
+
+SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
+    validate(problem);
+    stats_ = {};
+    const SweepObject& A = problem.a;
+    const SweepObject& B = problem.b;
+    const int frames = problem.frames();
+    const int last = frames - 1;
+    const InteractionType type = problem.type;
+    if (frames > kMaxFrameWords * 32) fail("key segment", "has {} normalised frames; the sweep handles at most {}", frames, kMaxFrameWords * 32);
+
+    // ---- column volumes, uploaded once ----
+    std::vector<const VoxelGrid*> grids{&A.whole.grid(), &B.whole.grid()};
+    if (problem.visibility) grids.insert(grids.end(), {&A.view_cone.grid(), &B.view_cone.grid()});
+    const ZFrame z = z_frame_covering(grids);
+    std::vector<std::unique_ptr<GpuVolume>> volumes;
+    auto add = [&](ColumnVolume columns) {
+        auto v = std::make_unique<GpuVolume>();
+        v->columns = std::move(columns);
+        v->bits = upload(context_, v->columns.bits.data(), v->columns.bits.size() * 4);
+        v->rows = upload(context_, v->columns.rows.data(), v->columns.rows.size() * 8);
+        volumes.push_back(std::move(v));
+        return volumes.back().get();
+    };
+    const bool frames_of_interest = type.lateral_pair() && (type.variant == 'a' || type.variant == 'b');
+    GpuVolume* interest_a = add(columns_of(A.interest, z, frames_of_interest));
+    GpuVolume* interest_b = add(columns_of(B.interest, z, frames_of_interest));
+
+    std::vector<std::vector<OverlapTest>> stages(4);
+    stages[0].push_back({interest_a, interest_b, 0, Want::Overlap});
+    // Dictionary: a '+' ('-') label fails when a contact voxel of that object is off its end
+    // (start) surface, i.e. when that object's off-surface voxels meet the other's volume.
+    auto off_surface = [&](const Amhv& volume, SurfaceLabel label) {
+        return add(columns_where(volume, z, [&, label](std::size_t v) {
+            return label == SurfaceLabel::Plus ? volume.t_end(v) < last - problem.tolerance : volume.t_start(v) > problem.tolerance;
+        }));
+    };
+    if (!type.lateral_pair()) {
+        if (type.a != SurfaceLabel::Lateral) stages[1].push_back({off_surface(A.interest, type.a), interest_b, 0, Want::NoOverlap});
+        if (type.b != SurfaceLabel::Lateral) stages[1].push_back({interest_a, off_surface(B.interest, type.b), 0, Want::NoOverlap});
+    } else if (type.variant == 'a') {
+        stages[1].push_back({interest_a, interest_b, frames, Want::EveryFrame});
+    } else if (type.variant == 'b') {
+        stages[1].push_back({interest_a, interest_b, frames, Want::Overlap});
+    } else {
+        // (c) fails when some contact voxel has t_start^A <= t_end^B, i.e. when for some t the
+        // voxels A has reached by t meet the voxels B still occupies at or after t.
+        stages[1].push_back({add(columns_cumulative(A.interest, z, true)), add(columns_cumulative(B.interest, z, false)), frames,
+                             Want::NoOverlap});
+    }
+    stages[2].push_back({add(columns_of(A.fidelity, z, true)), add(columns_of(B.fidelity, z, true)), frames, Want::NoOverlap});
+    if (problem.visibility) {
+        stages[3].push_back({add(columns_of(A.view_cone, z, false)), add(columns_of(B.whole, z, false)), 0, Want::Overlap});
+        stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z, false)), 0, Want::Overlap});
+    }
+
+    // ---- per moving volume: every angle's rotation and mapped bounds ----
+    const PoseRange& range = problem.range;
+    const auto root_a = problem.root_a_q(), root_b = problem.root_b_q();
+    std::vector<posemap::Trig> trig(std::size_t(range.angles));
+    for (int k = 0; k < range.angles; ++k) trig[std::size_t(k)] = problem.trig(k);
+    for (const auto& stage : stages)
+        for (const OverlapTest& test : stage) {
+            if (test.fixed->columns.slots != test.moving->columns.slots) fail("sweep", "internal: slot counts differ in one test");
+            if (test.moving->angles) continue;
+            std::vector<std::uint8_t> table(32 + std::size_t(range.angles) * sizeof(GpuAngle));
+            std::int64_t roots[4] = {root_a[0], root_a[1], root_b[0], root_b[1]};
+            std::memcpy(table.data(), roots, sizeof(roots));
+            for (int k = 0; k < range.angles; ++k) {
+                GpuAngle angle{{trig[std::size_t(k)].cos_q, trig[std::size_t(k)].sin_q}, {}};
+                auto bounds = mapped_bounds(test.moving->columns, trig[std::size_t(k)], root_a, root_b);
+                std::copy(bounds.begin(), bounds.end(), angle.bounds);
+                std::memcpy(table.data() + 32 + std::size_t(k) * sizeof(GpuAngle), &angle, sizeof(angle));
+            }
+            test.moving->angles = upload(context_, table.data(), table.size());
+        }
+
+    // Work blocks per test: loop iterations per item stay under the budget.
+    auto blocks_of = [&](const OverlapTest& test) {
+        const ColumnVolume& s = test.fixed->columns;
+        const std::uint64_t per_column = std::uint64_t(s.zwords) * (1 + test.frames) + 2;
+        if (per_column > options_.loop_budget)
+            fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
+                 "or a shorter segment", per_column, options_.loop_budget);
+        Blocks b;
+        b.columns = int(std::min<std::uint64_t>(std::uint64_t(std::max(s.nx, 1)), options_.loop_budget / per_column));
+        b.rows = int(std::clamp<std::uint64_t>(options_.loop_budget / (per_column * std::uint64_t(b.columns)), 1, std::uint64_t(std::max(s.ny, 1))));
+        b.items_x = (std::max(s.nx, 1) + b.columns - 1) / b.columns;
+        b.items_per_pose = b.items_x * ((std::max(s.ny, 1) + b.rows - 1) / b.rows);
+        return b;
+    };
+
+    // ---- stages ----
+    SweepResult result;
+    result.range = range;
+    result.outcomes.assign(range.size(), PoseOutcome::FailsContact);
+    if (range.size() == 0) {
+        result.count();
+        return result;
+    }
+    Sequence sequence(context_);
+    std::unique_ptr<Buffer> flags, poses;
+    Buffer no_poses(context_, 16, Buffer::Memory::Host);
+
+    // Runs every test of `stage` on `pose_list` (or, when null, on the `implicit_count` poses of the
+    // range starting at angle `angle_first`) and returns, per pose, whether it passes them all.
+    auto run_stage = [&](const std::vector<OverlapTest>& stage, const std::vector<std::array<std::int32_t, 4>>* pose_list,
+                         std::uint64_t implicit_count, int angle_first) {
+        const std::uint64_t count = pose_list ? pose_list->size() : implicit_count;
+        std::vector<std::uint8_t> passes(count, 1);
+        if (count == 0 || stage.empty()) return passes;
+        std::uint64_t flag_words_total = 0;
+        std::vector<std::uint64_t> offsets;
+        for (const OverlapTest& test : stage) {
+            offsets.push_back(flag_words_total);
+            flag_words_total += count * std::uint64_t(test.flag_words());
+        }
+        ensure_capacity(context_, flags, flag_words_total * 4);
+        if (pose_list) {
+            ensure_capacity(context_, poses, pose_list->size() * 16);
+            std::memcpy(poses->mapped<std::uint8_t>().data(), pose_list->data(), pose_list->size() * 16);
+        }
+        sequence.fill(*flags, flag_words_total * 4, 0u);
+        // The clear must land before the tests OR their flags in.
+        sequence.barrier();
+        std::vector<vk::raii::DescriptorSet> sets;
+        for (std::size_t t = 0; t < stage.size(); ++t) {
+            const OverlapTest& test = stage[t];
+            const ColumnVolume& s = test.fixed->columns;
+            const ColumnVolume& m = test.moving->columns;
+            Blocks b = blocks_of(test);
+            sets.push_back(overlap_.bind({test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(),
+                                          test.moving->angles.get(), pose_list ? poses.get() : &no_poses, flags.get()}));
+            OverlapParams params{0, 0,
+                                 std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
+                                 std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
+                                 s.slots, s.zwords, test.frames, test.mode(),
+                                 b.columns, b.rows, b.items_x, b.items_per_pose,
+                                 range.i_first, range.j_first, range.width(), range.height(),
+                                 angle_first, pose_list ? 1 : 0, test.flag_words(), std::int32_t(offsets[t])};
+            const std::uint64_t items = count * std::uint64_t(b.items_per_pose);
+            stats_.work_items += items;
+            sequence.dispatch(overlap_, sets.back(), params, std::uint32_t(items));
+        }
+        // The host reads the flags after the fence.
+        sequence.barrier_to_host();
+        sequence.submit_and_wait();
+        ++stats_.submits;
+        const std::uint32_t* f = flags->mapped<std::uint32_t>().data();
+        for (std::size_t t = 0; t < stage.size(); ++t) {
+            const OverlapTest& test = stage[t];
+            const int words = test.flag_words();
+            for (std::uint64_t p = 0; p < count; ++p) {
+                const std::uint32_t* w = f + offsets[t] + p * std::uint64_t(words);
+                bool ok;
+                if (test.want == Want::EveryFrame) {
+                    ok = true;
+                    for (int q = 0; q < words; ++q) {
+                        int bits = std::min(32, frames - q * 32);
+                        std::uint32_t all = bits == 32 ? 0xffffffffu : ((1u << bits) - 1u);
+                        ok = ok && (w[q] & all) == all;
+                    }
+                } else {
+                    ok = (w[0] != 0) == (test.want == Want::Overlap);
+                }
+                if (!ok) passes[p] = 0;
+            }
+        }
+        return passes;
+    };
+
+    // Batches of angles small enough for the flag buffer and 32-bit item counts.
+    const std::uint64_t per_angle = std::uint64_t(range.width()) * range.height();
+    std::uint64_t max_items = 1;
+    for (const auto& stage : stages)
+        for (const OverlapTest& test : stage) max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose));
+    const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options_.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
+    if (per_angle > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle, max_poses);
+    const int angles_per_batch = int(std::max<std::uint64_t>(1, max_poses / per_angle));
+
+    auto outcome_index = [&](const std::array<std::int32_t, 4>& p) {
+        return (std::size_t(p[0]) * range.height() + std::size_t(p[2] - range.j_first)) * range.width() + std::size_t(p[1] - range.i_first);
+    };
+    for (int angle_first = 0; angle_first < range.angles; angle_first += angles_per_batch) {
+        const int batch_angles = std::min(angles_per_batch, range.angles - angle_first);
+        const std::uint64_t batch_poses = per_angle * std::uint64_t(batch_angles);
+        stats_.poses_per_stage[0] += batch_poses;
+        auto contact = run_stage(stages[0], nullptr, batch_poses, angle_first);
+        std::vector<std::array<std::int32_t, 4>> survivors;
+        for (std::uint64_t p = 0; p < batch_poses; ++p) {
+            if (!contact[p]) continue;
+            std::uint64_t rest = p % per_angle;
+            survivors.push_back({angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
+                                 range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0});
+        }
+        for (int stage = 1; stage < 4; ++stage) {
+            stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
+            auto passes = run_stage(stages[std::size_t(stage)], &survivors, 0, 0);
+            std::vector<std::array<std::int32_t, 4>> next;
+            for (std::size_t p = 0; p < survivors.size(); ++p) {
+                if (passes[p]) next.push_back(survivors[p]);
+                else result.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
+            }
+            survivors = std::move(next);
+        }
+        for (const auto& p : survivors) result.outcomes[outcome_index(p)] = PoseOutcome::Solution;
+    }
+    result.count();
+    return result;
+}
+
+}  // namespace amhv::gpu

@@ -1,0 +1,43 @@
+#pragma once
+// The placement sweep in compute shaders (METHOD.md sections 4-5). The host turns the volumes into
+// column bitsets (sweep/column_volume.hpp) once, then runs the constraints as stages of overlap
+// tests (shaders/sweep_overlap.comp) over batches of poses: contact on every pose of the range,
+// then the dictionary on the poses in contact, fidelity on those, visibility on those. It only
+// reads back one flag word per pose and test to decide which poses go on to the next stage.
+#include <cstdint>
+
+#include "gpu/compute.hpp"
+#include "sweep/problem.hpp"
+
+namespace amhv::gpu {
+
+struct SweeperOptions {
+    std::uint64_t max_poses_per_batch = std::uint64_t(1) << 22;
+    // Loop iterations one invocation may run (lavapipe silently stops loops after about 65,535).
+    std::uint32_t loop_budget = 32768;
+};
+
+struct SweepStats {
+    std::uint64_t work_items = 0;  // invocations over all stages
+    std::uint64_t submits = 0;
+    std::array<std::uint64_t, 4> poses_per_stage{};  // poses entering contact, dictionary, fidelity, visibility
+};
+
+class VulkanSweeper : public Sweeper {
+public:
+    explicit VulkanSweeper(Context& context, SweeperOptions options = {});
+    std::string name() const override;
+    SweepResult sweep(const SweepProblem& problem) override;
+    const SweepStats& last_stats() const { return stats_; }
+
+    static constexpr std::uint32_t kWorkgroup = 64;
+    static constexpr int kMaxFrameWords = 16;  // PER_FRAME tests handle up to 512 frames
+
+private:
+    Context& context_;
+    SweeperOptions options_;
+    Kernel overlap_;
+    SweepStats stats_;
+};
+
+}  // namespace amhv::gpu

@@ -1,0 +1,137 @@
+#include "sweep/column_volume.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+namespace {
+
+std::int64_t lattice(double coordinate, double voxel) { return std::llround(coordinate / voxel); }
+
+ColumnVolume empty_like(const Amhv& volume, const ZFrame& z, int slots) {
+    const VoxelGrid& g = volume.grid();
+    ColumnVolume c;
+    c.x0 = lattice(g.origin.x(), g.voxel);
+    c.y0 = lattice(g.origin.y(), g.voxel);
+    c.nx = g.dims[0];
+    c.ny = g.dims[1];
+    c.slots = slots;
+    c.zwords = z.words;
+    c.bits.assign(std::size_t(c.nx) * c.ny * c.column_words(), 0u);
+    return c;
+}
+
+// Calls set(column words, bit word, bit mask, voxel index) for every voxel of the grid.
+template <typename Visit>
+void for_each_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& c, Visit visit) {
+    const VoxelGrid& g = volume.grid();
+    const std::int64_t z0 = lattice(g.origin.z(), g.voxel) - z.z_first;
+    for (int y = 0; y < g.dims[1]; ++y)
+        for (int x = 0; x < g.dims[0]; ++x) {
+            std::uint32_t* column = c.column(x, y);
+            for (int vz = 0; vz < g.dims[2]; ++vz) {
+                const std::int64_t bit = z0 + vz;
+                visit(column, int(bit / 32), 1u << (bit % 32), g.index(x, y, vz));
+            }
+        }
+}
+
+}  // namespace
+
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids) {
+    std::int64_t first = std::numeric_limits<std::int64_t>::max(), last = std::numeric_limits<std::int64_t>::min();
+    for (const VoxelGrid* g : grids) {
+        if (g->dims[2] == 0) continue;
+        std::int64_t z0 = lattice(g->origin.z(), g->voxel);
+        first = std::min(first, z0);
+        last = std::max(last, z0 + g->dims[2] - 1);
+    }
+    if (first > last) return {0, 1};
+    return {first, int((last - first) / 32 + 1)};
+}
+
+void ColumnVolume::finish() {
+    rows.assign(std::size_t(ny), {1, 0});
+    x_first = y_first = std::numeric_limits<int>::max();
+    x_last = y_last = std::numeric_limits<int>::min();
+    for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x) {
+            const std::uint32_t* c = column(x, y);
+            if (std::none_of(c, c + zwords, [](std::uint32_t w) { return w != 0; })) continue;
+            auto& row = rows[std::size_t(y)];
+            if (row[0] > row[1]) row = {x, x};
+            row[1] = x;
+            x_first = std::min(x_first, x);
+            x_last = std::max(x_last, x);
+            y_first = std::min(y_first, y);
+            y_last = std::max(y_last, y);
+        }
+    if (x_first > x_last) x_first = y_first = 1, x_last = y_last = 0;
+}
+
+ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
+    const int frames = volume.frames();
+    ColumnVolume c = empty_like(volume, z, with_frames ? frames + 1 : 1);
+    const std::size_t slot_words = std::size_t(z.words);
+    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
+        if (!volume.any(v)) return;
+        column[word] |= bit;
+        if (!with_frames) return;
+        for (int t = 0; t < frames; ++t)
+            if (volume.occupied(v, t)) column[(1 + std::size_t(t)) * slot_words + word] |= bit;
+    });
+    c.finish();
+    return c;
+}
+
+ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep) {
+    ColumnVolume c = empty_like(volume, z, 1);
+    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
+        if (volume.any(v) && keep(v)) column[word] |= bit;
+    });
+    c.finish();
+    return c;
+}
+
+ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool started_by) {
+    const int frames = volume.frames();
+    ColumnVolume c = empty_like(volume, z, frames + 1);
+    const std::size_t slot_words = std::size_t(z.words);
+    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
+        if (!volume.any(v)) return;
+        column[word] |= bit;
+        const int first = started_by ? volume.t_start(v) : 0;
+        const int last = started_by ? frames - 1 : volume.t_end(v);
+        for (int t = first; t <= last; ++t) column[(1 + std::size_t(t)) * slot_words + word] |= bit;
+    });
+    c.finish();
+    return c;
+}
+
+std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
+                                          const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b) {
+    if (moving.empty()) return {1, 1, 0, 0};
+    // Forward image of the occupied cells' corners (voxel units): u = R(theta) (b - C^B) + C^A.
+    const double scale = double(std::int64_t(1) << posemap::kTrigBits);
+    const double c = double(trig.cos_q) / scale, s = double(trig.sin_q) / scale;
+    const double unit = double(std::int64_t(1) << posemap::kPositionBits);
+    const double ax = double(root_a[0]) / unit, ay = double(root_a[1]) / unit;
+    const double bx = double(root_b[0]) / unit, by = double(root_b[1]) / unit;
+    double x_min = 1e300, x_max = -1e300, y_min = 1e300, y_max = -1e300;
+    for (int corner = 0; corner < 4; ++corner) {
+        double px = double(moving.x0 + ((corner & 1) ? moving.x_last + 1 : moving.x_first)) - bx;
+        double py = double(moving.y0 + ((corner & 2) ? moving.y_last + 1 : moving.y_first)) - by;
+        double ux = c * px - s * py + ax, uy = s * px + c * py + ay;
+        x_min = std::min(x_min, ux), x_max = std::max(x_max, ux);
+        y_min = std::min(y_min, uy), y_max = std::max(y_max, uy);
+    }
+    // Column g's centre is g + 1/2; two columns of margin cover the fixed-point rounding.
+    return {std::int32_t(std::floor(x_min - 0.5)) - 2, std::int32_t(std::floor(y_min - 0.5)) - 2,
+            std::int32_t(std::ceil(x_max - 0.5)) + 2, std::int32_t(std::ceil(y_max - 0.5)) + 2};
+}
+
+}  // namespace amhv

@@ -1,0 +1,56 @@
+#pragma once
+// Column bitsets: the layout the accelerated sweep tests overlaps in. A volume is cut into vertical
+// columns on the global lattice; each column holds `slots` records of `zwords` 32-bit words (bit z
+// = voxel z - z_first of the segment's shared z frame). Slot 0 is the union over the segment's
+// frames; slots 1..frames, when present, are the single frames. Because a placement keeps z, a
+// column of A and the column of B under it compare word by word.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "core/amhv.hpp"
+#include "sweep/pose_map.hpp"
+
+namespace amhv {
+
+struct ZFrame {
+    std::int64_t z_first = 0;  // global lattice index of bit 0
+    int words = 0;
+};
+
+// The z frame covering every grid given.
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids);
+
+struct ColumnVolume {
+    std::int64_t x0 = 0, y0 = 0;  // global lattice index of column (0, 0)
+    int nx = 0, ny = 0;
+    int slots = 1;
+    int zwords = 0;
+    std::vector<std::uint32_t> bits;  // [y][x][slot][word]
+    // Per row: first and last local x of an occupied column (first > last when the row is empty).
+    std::vector<std::array<std::int32_t, 2>> rows;
+    // Occupied columns' bounding box, local (x_first > x_last when empty).
+    int x_first = 1, x_last = 0, y_first = 1, y_last = 0;
+
+    int frames() const { return slots - 1; }
+    std::size_t column_words() const { return std::size_t(slots) * zwords; }
+    std::uint32_t* column(int x, int y) { return bits.data() + (std::size_t(y) * nx + x) * column_words(); }
+    const std::uint32_t* column(int x, int y) const { return bits.data() + (std::size_t(y) * nx + x) * column_words(); }
+    bool empty() const { return x_first > x_last; }
+    void finish();  // computes rows and the bounding box from the union slot
+};
+
+// Union (and, with `with_frames`, every frame) of `volume`.
+ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames);
+// One slot: the voxels of `volume` for which `keep(voxel index)` holds.
+ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep);
+// Union plus, per frame t, the voxels with t_start <= t (`started_by`) or with t_end >= t.
+ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool started_by);
+
+// Conservative bounding box [x_first, y_first, x_last, y_last] (global A lattice) of the A columns
+// that the pull mapping of angle `trig` (pose offset 0) sends into an occupied column of `moving`.
+std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
+                                          const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b);
+
+}  // namespace amhv

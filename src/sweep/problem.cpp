@@ -1,0 +1,158 @@
+#include "sweep/problem.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+namespace {
+
+double wrap_degrees(double degrees) {
+    double w = std::fmod(degrees, 360.0);
+    if (w > 180.0) w -= 360.0;
+    if (w <= -180.0) w += 360.0;
+    return w;
+}
+
+double signed_angle_deg(const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+    return std::atan2(from.x() * to.y() - from.y() * to.x(), from.dot(to)) * 180.0 / std::numbers::pi;
+}
+
+bool is_lattice_aligned(const VoxelGrid& grid, double voxel) {
+    if (grid.voxel != voxel) return false;
+    for (int axis = 0; axis < 3; ++axis) {
+        double units = grid.origin[axis] / voxel;
+        if (std::abs(units - std::round(units)) > 1e-6) return false;
+        if (std::abs(units) + grid.dims[axis] >= double(posemap::kMaxLatticeIndex)) return false;
+    }
+    return true;
+}
+
+void validate_object(const SweepObject& object, const SweepProblem& problem) {
+    const std::string what = "object " + object.name;
+    const int frames = object.interest.frames();
+    for (const Amhv* volume : {&object.interest, &object.fidelity, &object.whole}) {
+        if (volume->frames() != frames) fail(what, "its interest, fidelity and whole volumes have different frame counts");
+        const VoxelGrid& g = volume->grid();
+        const VoxelGrid& w = object.whole.grid();
+        if (g.dims != w.dims || g.origin != w.origin || g.voxel != w.voxel)
+            fail(what, "its interest, fidelity and whole volumes are not on one grid");
+    }
+    if (!is_lattice_aligned(object.whole.grid(), problem.voxel))
+        fail(what, "its grid is not on the {} m lattice or is too far from the origin", problem.voxel);
+    if (summarise(object.interest).occupied_voxels == 0) fail(what, "its volume of interest is empty in this key segment");
+    if (problem.visibility) {
+        if (object.view_cone.frames() != 1) fail(what, "visibility is asked for but it has no view cone");
+        if (!is_lattice_aligned(object.view_cone.grid(), problem.voxel)) fail(what, "its view cone grid is not on the lattice");
+    }
+    if (!(std::abs(object.facing.norm() - 1.0) < 1e-6)) fail(what, "its facing is not a unit vector");
+}
+
+}  // namespace
+
+posemap::Trig SweepProblem::trig(int k) const { return posemap::quantise_rotation(angle_deg(k) * std::numbers::pi / 180.0); }
+
+std::array<std::int64_t, 2> SweepProblem::root_a_q() const {
+    return {posemap::quantise_root(a.root.x() / voxel), posemap::quantise_root(a.root.y() / voxel)};
+}
+std::array<std::int64_t, 2> SweepProblem::root_b_q() const {
+    return {posemap::quantise_root(b.root.x() / voxel), posemap::quantise_root(b.root.y() / voxel)};
+}
+
+void validate(const SweepProblem& problem) {
+    if (!(problem.voxel > 0) || !std::isfinite(problem.voxel)) fail("sampling.voxel", "must be a positive number of metres");
+    if (problem.a.interest.frames() != problem.b.interest.frames())
+        fail("key segment", "A has {} normalised frames and B {}", problem.a.interest.frames(), problem.b.interest.frames());
+    if (problem.frames() < 1) fail("key segment", "has no frames");
+    validate_object(problem.a, problem);
+    validate_object(problem.b, problem);
+    if (problem.range.angles < 1) fail("sampling.angle_step_deg", "gives no angle");
+    if (problem.tolerance < 0) fail("tolerance", "must not be negative");
+}
+
+PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double voxel, int angles) {
+    PoseRange range;
+    range.angles = angles;
+    // A's occupied interest columns, in metres.
+    const VoxelGrid& ga = a.interest.grid();
+    Box3 a_box;
+    for (int z = 0; z < ga.dims[2]; ++z)
+        for (int y = 0; y < ga.dims[1]; ++y)
+            for (int x = 0; x < ga.dims[0]; ++x)
+                if (a.interest.any(ga.index(x, y, z))) {
+                    a_box.extend(ga.origin + voxel * Vec3(x, y, z));
+                    a_box.extend(ga.origin + voxel * Vec3(x + 1, y + 1, z + 1));
+                }
+    // B's occupied interest cells lie within `reach` of its root on the floor, at any angle.
+    const VoxelGrid& gb = b.interest.grid();
+    double reach = 0;
+    for (int z = 0; z < gb.dims[2]; ++z)
+        for (int y = 0; y < gb.dims[1]; ++y)
+            for (int x = 0; x < gb.dims[0]; ++x)
+                if (b.interest.any(gb.index(x, y, z)))
+                    for (int corner = 0; corner < 4; ++corner) {
+                        Vec3 p = gb.origin + voxel * Vec3(x + (corner & 1), y + (corner >> 1), 0);
+                        reach = std::max(reach, std::hypot(p.x() - b.root.x(), p.y() - b.root.y()));
+                    }
+    if (a_box.empty()) return range;
+    // A column u of A can only take B's value at offset s if |centre(u) - (C^A + s)| <= reach.
+    range.i_first = int(std::floor((a_box.min.x() - reach - a.root.x()) / voxel)) - 1;
+    range.i_last = int(std::ceil((a_box.max.x() + reach - a.root.x()) / voxel)) + 1;
+    range.j_first = int(std::floor((a_box.min.y() - reach - a.root.y()) / voxel)) - 1;
+    range.j_last = int(std::ceil((a_box.max.y() + reach - a.root.y()) / voxel)) + 1;
+    return range;
+}
+
+void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x_range, const std::array<double, 2>* y_range) {
+    if (x_range) {
+        range.i_first = std::max(range.i_first, int(std::ceil((*x_range)[0] / voxel - 1e-9)));
+        range.i_last = std::min(range.i_last, int(std::floor((*x_range)[1] / voxel + 1e-9)));
+    }
+    if (y_range) {
+        range.j_first = std::max(range.j_first, int(std::ceil((*y_range)[0] / voxel - 1e-9)));
+        range.j_last = std::min(range.j_last, int(std::floor((*y_range)[1] / voxel + 1e-9)));
+    }
+}
+
+void SweepResult::count() {
+    rejected = {};
+    solutions = 0;
+    for (PoseOutcome outcome : outcomes) {
+        if (outcome == PoseOutcome::Solution) ++solutions;
+        else ++rejected[std::size_t(outcome)];
+    }
+}
+
+Solution describe(const SweepProblem& problem, int i, int j, int k) {
+    Solution s;
+    s.i = i;
+    s.j = j;
+    s.k = k;
+    s.x = i * problem.voxel;
+    s.y = j * problem.voxel;
+    s.theta_deg = wrap_degrees(problem.angle_deg(k));
+    s.distance = std::hypot(s.x, s.y);
+    if (s.distance > 0) {
+        Eigen::Vector2d towards_b(s.x, s.y);
+        double theta = problem.angle_deg(k) * std::numbers::pi / 180.0;
+        Eigen::Vector2d facing_b = Eigen::Rotation2Dd(theta) * problem.b.facing;
+        s.theta_a_deg = wrap_degrees(signed_angle_deg(problem.a.facing, towards_b));
+        s.theta_b_deg = wrap_degrees(signed_angle_deg(facing_b, -towards_b));
+    }
+    return s;
+}
+
+std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& result) {
+    std::vector<Solution> list;
+    const PoseRange& r = result.range;
+    for (int k = 0; k < r.angles; ++k)
+        for (int j = r.j_first; j <= r.j_last; ++j)
+            for (int i = r.i_first; i <= r.i_last; ++i)
+                if (result.at(i, j, k) == PoseOutcome::Solution) list.push_back(describe(problem, i, j, k));
+    return list;
+}
+
+}  // namespace amhv

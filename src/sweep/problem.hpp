@@ -1,0 +1,100 @@
+#pragma once
+// One key segment pair's constraint satisfaction problem (METHOD.md sections 4-6) and its answer.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/amhv.hpp"
+#include "sweep/interaction.hpp"
+#include "sweep/pose_map.hpp"
+
+namespace amhv {
+
+// One object's volumes in one key segment, all on the object's segment grid and over the same
+// normalised frames; `view_cone` (one frame, any grid of the same edge) is the set of voxels whose
+// centre lies inside the object's view cone.
+struct SweepObject {
+    std::string name;
+    Amhv interest;  // I: the contact part
+    Amhv fidelity;  // N: must never share a voxel with the other's N at the same frame
+    Amhv whole;     // W: the whole body, seen by the other's view cone
+    Amhv view_cone; // empty (0 frames) when visibility is not asked for
+    Vec3 root = Vec3::Zero();                        // C: of the whole body's aMHV
+    Eigen::Vector2d facing = Eigen::Vector2d::UnitX();  // F: unit, on the floor
+};
+
+// Poses (i h, j h, k dtheta) for i in [i_first, i_last], j in [j_first, j_last], k in [0, angles).
+struct PoseRange {
+    int i_first = 0, i_last = -1, j_first = 0, j_last = -1;
+    int angles = 0;
+    int width() const { return i_last - i_first + 1; }
+    int height() const { return j_last - j_first + 1; }
+    std::uint64_t size() const { return width() > 0 && height() > 0 ? std::uint64_t(width()) * height() * angles : 0; }
+};
+
+struct SweepProblem {
+    SweepObject a, b;
+    InteractionType type;
+    int tolerance = 0;        // epsilon, in frames, for the '+' and '-' labels
+    bool visibility = false;  // test mutual visibility (both objects need a view cone)
+    double voxel = 0.01;
+    double angle_step_deg = 2.0;
+    PoseRange range;
+
+    int frames() const { return a.interest.frames(); }
+    double angle_deg(int k) const { return k * angle_step_deg; }
+    posemap::Trig trig(int k) const;
+    // Roots in the fixed point of pose_map.hpp.
+    std::array<std::int64_t, 2> root_a_q() const;
+    std::array<std::int64_t, 2> root_b_q() const;
+};
+
+// Checks the invariants the sweep relies on (shared grids, frame counts, lattice alignment, sizes)
+// and throws amhv::Error naming what is wrong.
+void validate(const SweepProblem& problem);
+
+// Every offset at which B's interest volume can touch A's under some angle (METHOD.md section 4),
+// optionally narrowed to [x_min, x_max] x [y_min, y_max] metres.
+PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double voxel, int angles);
+void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x_range, const std::array<double, 2>* y_range);
+
+// Outcome of one pose: how far down the order of tests (contact, dictionary, fidelity, visibility) it got.
+enum class PoseOutcome : std::uint8_t { FailsContact = 0, FailsDictionary = 1, FailsFidelity = 2, FailsVisibility = 3, Solution = 4 };
+
+struct Solution {
+    int i = 0, j = 0, k = 0;
+    double x = 0, y = 0, theta_deg = 0;       // theta wrapped to (-180, 180]
+    double distance = 0;                      // L = |C^A C'^B|
+    double theta_a_deg = 0, theta_b_deg = 0;  // METHOD.md section 6
+};
+
+struct SweepResult {
+    PoseRange range;
+    // One outcome per pose, [k][j - j_first][i - i_first].
+    std::vector<PoseOutcome> outcomes;
+    std::array<std::uint64_t, 4> rejected{};  // contact, dictionary, fidelity, visibility
+    std::uint64_t solutions = 0;
+
+    PoseOutcome at(int i, int j, int k) const {
+        return outcomes[(std::size_t(k) * range.height() + (j - range.j_first)) * range.width() + (i - range.i_first)];
+    }
+    void count();  // fills rejected and solutions from outcomes
+};
+
+// The paper's descriptors of pose (i, j, k).
+Solution describe(const SweepProblem& problem, int i, int j, int k);
+// All solutions in the fixed order (theta, y, x).
+std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& result);
+
+class Sweeper {
+public:
+    virtual ~Sweeper() = default;
+    virtual std::string name() const = 0;
+    virtual SweepResult sweep(const SweepProblem& problem) = 0;
+};
+
+}  // namespace amhv

@@ -1,0 +1,240 @@
+// The placement sweep: the Vulkan path against the plain CPU reference (identical outcome for every
+// pose), and both against solution sets known in closed form.
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "body/shapes.hpp"
+#include "core/error.hpp"
+#include "gpu/sweep_vulkan.hpp"
+#include "reference/sweep_reference.hpp"
+#include "reference/voxelise_reference.hpp"
+#include "sweep/objects.hpp"
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+// A performer: per frame a body (any closed parts) and a separate interest part.
+struct Performer {
+    std::vector<MeshFrame> body, part;
+};
+
+SweepObject object_from(const std::string& name, const Performer& p, double voxel, ObjectParts parts = {},
+                        Eigen::Vector2d facing = Eigen::Vector2d::UnitX()) {
+    std::vector<ObjectFrame> frames(p.body.size());
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        frames[f].whole = {&p.body[f]};
+        if (!p.part.empty()) frames[f].interest = {&p.part[f]};
+    }
+    ReferenceVoxeliser voxeliser;
+    SweepObject object = build_sweep_object(name, frames, parts, voxel, voxeliser);
+    object.facing = facing;
+    return object;
+}
+
+SweepProblem problem_of(SweepObject a, SweepObject b, const std::string& type, double voxel, double angle_step) {
+    SweepProblem problem;
+    problem.a = std::move(a);
+    problem.b = std::move(b);
+    problem.type = parse_interaction_type(type, "test");
+    problem.voxel = voxel;
+    problem.angle_step_deg = angle_step;
+    problem.range = automatic_range(problem.a, problem.b, voxel, int(std::lround(360.0 / angle_step)));
+    return problem;
+}
+
+struct BothResults {
+    SweepResult reference, gpu;
+};
+
+BothResults sweep_both(const SweepProblem& problem, gpu::SweeperOptions options = {}) {
+    ReferenceSweeper reference;
+    gpu::VulkanSweeper vulkan(test::context(), options);
+    BothResults both{reference.sweep(problem), vulkan.sweep(problem)};
+    test::expect_no_validation_messages();
+    return both;
+}
+
+void expect_identical(const BothResults& both) {
+    ASSERT_EQ(both.reference.outcomes.size(), both.gpu.outcomes.size());
+    std::size_t differing = 0, first = 0;
+    for (std::size_t i = 0; i < both.gpu.outcomes.size(); ++i)
+        if (both.reference.outcomes[i] != both.gpu.outcomes[i] && differing++ == 0) first = i;
+    EXPECT_EQ(differing, 0u) << "first differing pose " << first << ": reference " << int(both.reference.outcomes[first]) << ", vulkan "
+                             << int(both.gpu.outcomes[first]);
+    EXPECT_EQ(both.reference.rejected, both.gpu.rejected);
+    EXPECT_EQ(both.reference.solutions, both.gpu.solutions);
+}
+
+MeshFrame frame_of(TriangleMesh mesh, int f) { return {std::move(mesh), "frame " + std::to_string(f)}; }
+
+// Two static spheres of radius r, contact by 0&0 (b): solutions are the offsets with |s| < 2r, at
+// every angle, up to the voxelisation (one voxel either side).
+TEST(Sweep, StaticSpheresTouchWithinTwoRadii) {
+    const double h = 0.02, r = 0.15;
+    Performer a, b;
+    for (int f = 0; f < 4; ++f) {
+        a.body.push_back(frame_of(shapes::sphere(Vec3(0.3, -0.2, 1.0), r), f));
+        b.body.push_back(frame_of(shapes::sphere(Vec3(-2.0, 4.0, 1.0), r), f));
+    }
+    ObjectParts whole{.interest = PartRule::Whole};
+    auto problem = problem_of(object_from("A", a, h, whole), object_from("B", b, h, whole), "0&0b", h, 30);
+    auto both = sweep_both(problem);
+    expect_identical(both);
+    ASSERT_GT(both.gpu.solutions, 0u);
+    for (const Solution& s : solutions(problem, both.gpu)) EXPECT_LT(s.distance, 2 * r + 2 * h);
+    const PoseRange& range = both.gpu.range;
+    for (int k = 0; k < range.angles; ++k)
+        for (int j = range.j_first; j <= range.j_last; ++j)
+            for (int i = range.i_first; i <= range.i_last; ++i)
+                if (std::hypot(i * h, j * h) < 2 * r - 2 * h) {
+                    EXPECT_EQ(both.gpu.at(i, j, k), PoseOutcome::Solution) << i << " " << j << " " << k;
+                }
+}
+
+// A punch (+ & 0): A's fist moves +x from x = -0.3 to 0 and stops; B is a static ball. With B on
+// the x axis in front of the fist's final position the contact is on A's end surface (a solution);
+// behind it B meets the fist's path, which is not the end surface (rejected by the dictionary).
+TEST(Sweep, PunchMeetsOnlyTheEndSurface) {
+    const double h = 0.02, r = 0.08;
+    const int frames = 8;
+    Performer a, b;
+    for (int f = 0; f < frames; ++f) {
+        double x = -0.3 + 0.3 * f / (frames - 1);
+        a.body.push_back(frame_of(shapes::box(Vec3(-0.9, -0.15, 0.0), Vec3(-0.5, 0.15, 1.8)), f));
+        a.part.push_back(frame_of(shapes::sphere(Vec3(x, 0, 1.4), r), f));
+        b.body.push_back(frame_of(shapes::sphere(Vec3(0, 0, 1.4), r), f));
+    }
+    ObjectParts whole{.interest = PartRule::Whole};
+    SweepObject A = object_from("A", a, h), B = object_from("B", b, h, whole);
+    auto problem = problem_of(A, B, "+&0", h, 90);
+    auto both = sweep_both(problem);
+    expect_identical(both);
+    // Offsets are relative to A's root (its body and fist together); find the fist's end on the axis.
+    const double fist_end_x = 0.0 - problem.a.root.x(), axis_y = 0.0 - problem.a.root.y();
+    const int j = int(std::lround(axis_y / h));
+    for (int k = 0; k < 4; ++k) {
+        // B's ball centred 1.5 r in front of the fist's final centre: touches the end surface only.
+        int i_front = int(std::lround((fist_end_x + 1.5 * r) / h));
+        EXPECT_EQ(both.gpu.at(i_front, j, k), PoseOutcome::Solution) << "angle " << k;
+        // B's ball in the middle of the path: contact off the end surface.
+        int i_path = int(std::lround((fist_end_x - 0.15) / h));
+        EXPECT_EQ(both.gpu.at(i_path, j, k), PoseOutcome::FailsDictionary) << "angle " << k;
+    }
+}
+
+// Random performers and every interaction type, with and without visibility: identical outcomes.
+TEST(Sweep, RandomScenesMatchReference) {
+    std::mt19937 random(20261121);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const char* types[] = {"+&-", "-&+", "+&+", "-&-", "+&0", "0&+", "-&0", "0&-", "0&0a", "0&0b", "0&0c"};
+    std::uint64_t total_solutions = 0, total_dictionary = 0, total_fidelity = 0, total_visibility = 0;
+    for (int scene = 0; scene < 22; ++scene) {
+        const double h = 0.03;
+        const int frames = 5 + scene % 7;
+        auto random_performer = [&]() {
+            Performer p;
+            Vec3 body0(u(random) * 0.2, u(random) * 0.2, 0.9), body_v(u(random) * 0.15, u(random) * 0.15, 0);
+            Vec3 hand0(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2), hand_v(u(random) * 0.4, u(random) * 0.4, u(random) * 0.2);
+            for (int f = 0; f < frames; ++f) {
+                double s = double(f) / (frames - 1);
+                Vec3 c = body0 + s * body_v, hand = hand0 + s * hand_v;
+                TriangleMesh body = shapes::capsule(c - Vec3(0, 0, 0.5), c + Vec3(0, 0, 0.5), 0.16, 3, 10);
+                body.append(shapes::capsule(c + Vec3(0, 0, 0.3), hand, 0.05, 2, 8));  // the arm
+                p.body.push_back(frame_of(body, f));
+                p.part.push_back(frame_of(shapes::sphere(hand, 0.07 + 0.03 * std::abs(u(random)), 6, 10), f));
+            }
+            return p;
+        };
+        Performer a = random_performer(), b = random_performer();
+        Eigen::Vector2d fa(u(random), u(random)), fb(u(random), u(random));
+        SweepObject A = object_from("A", a, h, {}, fa.normalized()), B = object_from("B", b, h, {}, fb.normalized());
+        auto problem = problem_of(A, B, types[scene % 11], h, 30);
+        problem.tolerance = scene % 3 == 2 ? 1 : 0;
+        if (scene % 2 == 1) {
+            problem.visibility = true;
+            Box3 region_a, region_b;
+            for (auto* obj : {&problem.a, &problem.b}) {
+                Box3 region;
+                region.min = obj->root - Vec3(1.6, 1.6, 1.0);
+                region.max = obj->root + Vec3(1.6, 1.6, 1.0);
+                ViewCone cone{obj->root + Vec3(0, 0, 0.6), Vec3(obj->facing.x(), obj->facing.y(), -0.2).normalized(), 25, 0};
+                obj->view_cone = view_cone_volume(cone, region, h);
+            }
+        }
+        auto both = sweep_both(problem);
+        SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 11]);
+        expect_identical(both);
+        total_solutions += both.gpu.solutions;
+        total_dictionary += both.gpu.rejected[1];
+        total_fidelity += both.gpu.rejected[2];
+        total_visibility += both.gpu.rejected[3];
+    }
+    // The scenes exercise every stage.
+    EXPECT_GT(total_solutions, 0u);
+    EXPECT_GT(total_dictionary, 0u);
+    EXPECT_GT(total_fidelity, 0u);
+    EXPECT_GT(total_visibility, 0u);
+}
+
+// Work split into many small items (a tiny loop budget) must not change a single outcome, and the
+// default split must handle a large fidelity volume over many frames (which one invocation per pose
+// would take far past lavapipe's loop cap).
+TEST(Sweep, WorkSplittingMatchesReference) {
+    const double h = 0.02;
+    const int frames = 40;
+    Performer a, b;
+    for (int f = 0; f < frames; ++f) {
+        double s = double(f) / (frames - 1);
+        Vec3 ca(0, 0, 0.9), cb(0.1 * s, 0.05, 0.9);
+        TriangleMesh body_a = shapes::capsule(ca - Vec3(0, 0, 0.6), ca + Vec3(0, 0, 0.6), 0.25, 3, 12);
+        body_a.append(shapes::box(Vec3(-0.6, -0.6, 0.0), Vec3(0.6, 0.6, 0.05)));  // a wide base: many columns
+        a.body.push_back(frame_of(body_a, f));
+        a.part.push_back(frame_of(shapes::sphere(Vec3(0.45, 0, 1.2 + 0.1 * s), 0.08), f));
+        b.body.push_back(frame_of(shapes::capsule(cb - Vec3(0, 0, 0.6), cb + Vec3(0, 0, 0.6), 0.2, 3, 12), f));
+        b.part.push_back(frame_of(shapes::sphere(Vec3(0.4 - 0.1 * s, 0, 1.25), 0.08), f));
+    }
+    auto problem = problem_of(object_from("A", a, h), object_from("B", b, h), "0&0b", h, 45);
+    // Per pose the fidelity test alone visits about 60 x 60 columns x 3 words x 41 slots.
+    auto both = sweep_both(problem);
+    expect_identical(both);
+    gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200});
+    SweepResult split = tiny.sweep(problem);
+    test::expect_no_validation_messages();
+    EXPECT_EQ(split.outcomes, both.reference.outcomes);
+    EXPECT_GT(both.gpu.rejected[2], 0u);
+    EXPECT_GT(both.gpu.solutions, 0u);
+}
+
+// Descriptors (METHOD.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.
+TEST(Sweep, DescriptorsOfAFaceToFacePose) {
+    SweepProblem problem;
+    problem.voxel = 0.01;
+    problem.angle_step_deg = 2;
+    problem.a.facing = Eigen::Vector2d::UnitX();
+    problem.b.facing = Eigen::Vector2d::UnitX();
+    Solution s = describe(problem, 100, 0, 90);  // B at (1, 0), turned by 180 degrees
+    EXPECT_NEAR(s.distance, 1.0, 1e-12);
+    EXPECT_NEAR(s.theta_deg, 180.0, 1e-12);
+    EXPECT_NEAR(s.theta_a_deg, 0.0, 1e-9);
+    EXPECT_NEAR(std::abs(s.theta_b_deg), 0.0, 1e-9);
+    Solution side = describe(problem, 0, 100, 0);  // B at (0, 1), facing +x like A
+    EXPECT_NEAR(side.theta_a_deg, 90.0, 1e-9);
+    EXPECT_NEAR(side.theta_b_deg, -90.0, 1e-9);
+}
+
+TEST(Sweep, InteractionTypesParse) {
+    EXPECT_EQ(parse_interaction_type("+ & -", "t").name(), "+&-");
+    EXPECT_EQ(parse_interaction_type("0&0 (a)", "t").name(), "0&0a");
+    EXPECT_EQ(parse_interaction_type("0&0-c", "t").name(), "0&0c");
+    EXPECT_EQ(parse_interaction_type("0&+", "t").name(), "0&+");
+    EXPECT_THROW(parse_interaction_type("0&0", "t"), Error);
+    EXPECT_THROW(parse_interaction_type("+&-a", "t"), Error);
+    EXPECT_THROW(parse_interaction_type("hug", "t"), Error);
+}
+
+}  // namespace
+}  // namespace amhv
