@@ -31,6 +31,10 @@ layout(std430, set = 0, binding = 3) readonly buffer Angles {
 };
 layout(std430, set = 0, binding = 4) readonly buffer Poses { ivec4 poses[]; };  // (angle, i, j, unused)
 layout(std430, set = 0, binding = 5) buffer Flags { uint flags[]; };
+// PER_FRAME tests only: each frame's occupied box, static (local columns) and moving (per angle
+// and frame, mapped at offset 0, global columns). Disjoint boxes prove a frame has no overlap.
+layout(std430, set = 0, binding = 6) readonly buffer StaticFrameBoxes { ivec4 static_frame_boxes[]; };
+layout(std430, set = 0, binding = 7) readonly buffer MovingFrameBoxes { ivec4 moving_frame_boxes[]; };
 
 const int MODE_ANY = 0;
 const int MODE_PER_FRAME = 1;
@@ -45,6 +49,11 @@ layout(push_constant) uniform Params {
     // Implicit poses (explicit_poses == 0): every (i, j) of the range for angles angle_first...
     int range_i0, range_j0, range_ni, range_nj;
     int angle_first, explicit_poses, flag_words, flag_offset;
+    // z words where both volumes have bits: the only words that can overlap.
+    int word_first, word_last;
+    // PER_FRAME: a work item is (pose, block of frames, spatial block); with a single spatial block
+    // an item sees every column, so a frame without overlap decides the pose and ends the item.
+    int frames_per_item, spatial_items;
 } params;
 
 void main() {
@@ -65,6 +74,11 @@ void main() {
     Angle angle = angles[p.x];
     // The moving volume's mapped box at this pose, in the static volume's local columns.
     ivec4 box = angle.bounds + ivec4(p.y, p.z, p.y, p.z) - ivec4(params.static_x0, params.static_y0, params.static_x0, params.static_y0);
+    int frame_block = 0;
+    if (params.mode == MODE_PER_FRAME) {
+        frame_block = chunk / params.spatial_items;
+        chunk = chunk % params.spatial_items;
+    }
     int block_x = chunk % params.items_x, block_y = chunk / params.items_x;
     int y_first = max(block_y * params.rows_per_item, box.y);
     int y_last = min(min(block_y * params.rows_per_item + params.rows_per_item, params.static_ny) - 1, box.w);
@@ -75,6 +89,40 @@ void main() {
     for (int w = 0; w < MAX_FRAME_WORDS; ++w) found[w] = 0u;
     bool hit = false;
     const uint column_words = uint(params.slots * params.zwords);
+    const ivec4 to_local = ivec4(p.y - params.static_x0, p.z - params.static_y0, p.y - params.static_x0, p.z - params.static_y0);
+
+    if (params.mode == MODE_PER_FRAME) {
+        // Frame by frame, only over the columns where both frame boxes meet; a frame is done at its
+        // first overlap.
+        int t_first = frame_block * params.frames_per_item;
+        int t_last = min(params.frames, t_first + params.frames_per_item) - 1;
+        for (int t = t_first; t <= t_last; ++t) {
+            ivec4 sb = static_frame_boxes[t];
+            ivec4 mb = moving_frame_boxes[uint(p.x) * uint(params.frames) + uint(t)] + to_local;
+            int fy_first = max(y_first, max(sb.y, mb.y)), fy_last = min(y_last, min(sb.w, mb.w));
+            int fx_first = max(x_lo, max(sb.x, mb.x)), fx_last = min(x_hi, min(sb.z, mb.z));
+            uint slot = uint((1 + t) * params.zwords);
+            bool frame_found = false;
+            for (int y = fy_first; y <= fy_last && !frame_found; ++y) {
+                for (int x = fx_first; x <= fx_last && !frame_found; ++x) {
+                    i64vec2 source = source_column(int64_t(params.static_x0 + x - p.y), int64_t(params.static_y0 + y - p.z),
+                                                   angle.trig, root_a, root_b);
+                    int64_t bx = source.x - int64_t(params.moving_x0), by = source.y - int64_t(params.moving_y0);
+                    if (bx < 0 || by < 0 || bx >= int64_t(params.moving_nx) || by >= int64_t(params.moving_ny)) continue;
+                    uint s = (uint(y) * uint(params.static_nx) + uint(x)) * column_words + slot;
+                    uint m = (uint(by) * uint(params.moving_nx) + uint(bx)) * column_words + slot;
+                    for (int w = params.word_first; w <= params.word_last; ++w)
+                        if ((static_bits[s + uint(w)] & moving_bits[m + uint(w)]) != 0u) { frame_found = true; break; }
+                }
+            }
+            if (frame_found) found[t >> 5] |= 1u << uint(t & 31);
+            else if (params.spatial_items == 1) break;  // no overlap anywhere at frame t: the pose fails
+        }
+        uint flag = uint(params.flag_offset) + pose * uint(params.flag_words);
+        for (int w = 0; w < params.flag_words; ++w)
+            if (found[w] != 0u) atomicOr(flags[flag + uint(w)], found[w]);
+        return;
+    }
     for (int y = y_first; y <= y_last && !hit; ++y) {
         ivec2 row = static_rows[y];
         int x_first = max(x_lo, row.x), x_last = min(x_hi, row.y);
@@ -86,16 +134,18 @@ void main() {
             uint s = (uint(y) * uint(params.static_nx) + uint(x)) * column_words;
             uint m = (uint(by) * uint(params.moving_nx) + uint(bx)) * column_words;
             bool unions_meet = false;
-            for (int w = 0; w < params.zwords; ++w)
+            for (int w = params.word_first; w <= params.word_last; ++w)
                 if ((static_bits[s + uint(w)] & moving_bits[m + uint(w)]) != 0u) { unions_meet = true; break; }
             if (!unions_meet) continue;
             if (params.frames == 0) { hit = true; break; }
             for (int t = 0; t < params.frames && !hit; ++t) {
+                uint bit = 1u << uint(t & 31);
+                if ((found[t >> 5] & bit) != 0u) continue;  // this frame's overlap is already known
                 uint slot = uint((1 + t) * params.zwords);
-                for (int w = 0; w < params.zwords; ++w) {
+                for (int w = params.word_first; w <= params.word_last; ++w) {
                     if ((static_bits[s + slot + uint(w)] & moving_bits[m + slot + uint(w)]) != 0u) {
                         if (params.mode == MODE_ANY) hit = true;
-                        else found[t >> 5] |= 1u << uint(t & 31);
+                        else found[t >> 5] |= bit;
                         break;
                     }
                 }

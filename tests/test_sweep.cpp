@@ -197,16 +197,23 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         b.body.push_back(frame_of(shapes::capsule(cb - Vec3(0, 0, 0.6), cb + Vec3(0, 0, 0.6), 0.2, 3, 12), f));
         b.part.push_back(frame_of(shapes::sphere(Vec3(0.4 - 0.1 * s, 0, 1.25), 0.08), f));
     }
-    auto problem = problem_of(object_from("A", a, h), object_from("B", b, h), "0&0b", h, 45);
-    // Per pose the fidelity test alone visits about 60 x 60 columns x 3 words x 41 slots.
-    auto both = sweep_both(problem);
-    expect_identical(both);
-    gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200});
-    SweepResult split = tiny.sweep(problem);
-    test::expect_no_validation_messages();
-    EXPECT_EQ(split.outcomes, both.reference.outcomes);
-    EXPECT_GT(both.gpu.rejected[2], 0u);
-    EXPECT_GT(both.gpu.solutions, 0u);
+    SweepObject A = object_from("A", a, h), B = object_from("B", b, h);
+    for (const char* type : {"0&0b", "0&0a", "0&0c"}) {
+        SCOPED_TRACE(type);
+        auto problem = problem_of(A, B, type, h, 45);
+        // Per pose the fidelity test alone visits about 60 x 60 columns x 3 words x 41 slots.
+        auto both = sweep_both(problem);
+        expect_identical(both);
+        gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200});
+        SweepResult split = tiny.sweep(problem);
+        test::expect_no_validation_messages();
+        EXPECT_EQ(split.outcomes, both.reference.outcomes);
+        if (std::string(type) == "0&0b") {
+            EXPECT_GT(both.gpu.rejected[2], 0u);
+            EXPECT_GT(both.gpu.solutions, 0u);
+        }
+        if (std::string(type) == "0&0a") EXPECT_GT(both.gpu.rejected[1], 0u);
+    }
 }
 
 // Descriptors (METHOD.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.

@@ -142,11 +142,14 @@ SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int firs
     result.outcomes.assign(r.size(), PoseOutcome::FailsContact);
     ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}};
     if (problem.visibility) a.cone = occupied_voxels(problem.a.view_cone);
-    for (int k = first_angle; k < std::min(r.angles, first_angle + angle_count); ++k)
+    const int last_angle = std::min(r.angles, first_angle + angle_count);
+    for (int k = first_angle; k < last_angle; ++k) {
         for (int j = r.j_first; j <= r.j_last; ++j)
             for (int i = r.i_first; i <= r.i_last; ++i)
                 result.outcomes[(std::size_t(k) * r.height() + (j - r.j_first)) * r.width() + (i - r.i_first)] =
                     evaluate(problem, a, i, j, k);
+        if (progress) progress(k + 1 - first_angle, last_angle - first_angle);
+    }
     result.count();
     return result;
 }

@@ -3,6 +3,8 @@
 #include "body/shapes.hpp"
 #include "core/error.hpp"
 
+#include <cctype>
+
 namespace amhv {
 
 namespace {
@@ -32,10 +34,41 @@ double bone_radius(const std::string& parent, const std::string& child) {
     return 0.04;
 }
 
-TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
+std::string body_part(const std::string& parent) {
+    // Side: "Left..."/"Right..." or CMU's short "L..."/"R..." prefix (LHipJoint, RThumb).
+    std::string side;
+    if (parent.rfind("Left", 0) == 0 || (parent.size() > 1 && parent[0] == 'L' && std::isupper(static_cast<unsigned char>(parent[1]))))
+        side = "left_";
+    if (parent.rfind("Right", 0) == 0 || (parent.size() > 1 && parent[0] == 'R' && std::isupper(static_cast<unsigned char>(parent[1]))))
+        side = "right_";
+    if (contains(parent, "Head") || contains(parent, "Neck")) return "head";
+    if (contains(parent, "Hand") || contains(parent, "Finger") || contains(parent, "Thumb") || contains(parent, "Index")) return side + "hand";
+    if (contains(parent, "ForeArm")) return side + "forearm";
+    if (contains(parent, "Shoulder")) return "torso";
+    if (contains(parent, "Arm")) return side + "upper_arm";
+    if (contains(parent, "UpLeg")) return side + "thigh";
+    if (contains(parent, "Foot") || contains(parent, "Toe")) return side + "foot";
+    if (contains(parent, "Leg")) return side + "shin";
+    return "torso";
+}
+
+const std::vector<std::string>& body_part_names() {
+    static const std::vector<std::string> names{"head", "torso", "left_upper_arm", "left_forearm", "left_hand", "right_upper_arm",
+                                                "right_forearm", "right_hand", "left_thigh", "left_shin", "left_foot",
+                                                "right_thigh", "right_shin", "right_foot"};
+    return names;
+}
+
+std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
     auto global = motion.global_transforms(frame);
     auto world = [&](std::size_t j) { return to_z_up(global[j].translation() * options.units.metres_per_unit, options.units.up); };
-    TriangleMesh body;
+    std::vector<BodyPart> parts;
+    auto part_mesh = [&](const std::string& name) -> TriangleMesh& {
+        for (auto& p : parts)
+            if (p.name == name) return p.mesh;
+        parts.push_back({name, {}});
+        return parts.back().mesh;
+    };
     for (std::size_t j = 0; j < motion.joints.size(); ++j) {
         const BvhJoint& joint = motion.joints[j];
         if (joint.parent < 0) continue;
@@ -43,15 +76,68 @@ TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBod
         Vec3 a = world(std::size_t(joint.parent)), b = world(j);
         if ((b - a).norm() < 1e-4) continue;  // zero-length bones (CMU's hip joints) add nothing
         double radius = bone_radius(parent, joint.name);
+        TriangleMesh& mesh = part_mesh(body_part(parent));
         if (contains(parent, "Head") && joint.end_site) {
-            body.append(shapes::sphere((a + b) / 2, radius, options.cap_rings * 2, options.segments));
+            mesh.append(shapes::sphere((a + b) / 2, radius, options.cap_rings * 2, options.segments));
             continue;
         }
-        body.append(shapes::capsule(a, b, radius, options.cap_rings, options.segments));
+        mesh.append(shapes::capsule(a, b, radius, options.cap_rings, options.segments));
     }
-    for (const Vec3& v : body.vertices)
-        if (!v.allFinite()) fail(motion.source, "frame {} gives a non-finite joint position", frame);
+    for (const auto& p : parts)
+        for (const Vec3& v : p.mesh.vertices)
+            if (!v.allFinite()) fail(motion.source, "frame {} gives a non-finite joint position", frame);
+    return parts;
+}
+
+TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
+    TriangleMesh body;
+    for (const BodyPart& part : skeleton_body_parts(motion, frame, options)) body.append(part.mesh);
     return body;
+}
+
+std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options) {
+    auto find = [&](std::initializer_list<const char*> names) {
+        for (const char* n : names)
+            if (int j = motion.joint_index(n); j >= 0) return std::size_t(j);
+        fail(motion.source, "cannot derive a view track: no joint named {}", *names.begin());
+    };
+    const std::size_t head = find({"Head"}), left_arm = find({"LeftArm", "LeftShoulder"}), right_arm = find({"RightArm", "RightShoulder"});
+    const std::size_t left_leg = find({"LeftUpLeg", "LHipJoint"}), right_leg = find({"RightUpLeg", "RHipJoint"});
+    int head_end = -1;
+    for (std::size_t j = 0; j < motion.joints.size(); ++j)
+        if (motion.joints[j].parent == int(head)) head_end = int(j);
+    // The file's axes to z up, as a rotation.
+    Eigen::Matrix3d axes;
+    for (int c = 0; c < 3; ++c) axes.col(c) = to_z_up(Vec3::Unit(c), options.units.up);
+    const double scale = options.units.metres_per_unit;
+
+    std::vector<TrackSample> track(std::size_t(motion.frame_count));
+    std::vector<Eigen::Matrix3d> head_rotation(track.size());
+    Vec3 head_local_forward = Vec3::Zero();
+    for (int f = 0; f < motion.frame_count; ++f) {
+        auto g = motion.global_transforms(f);
+        auto at = [&](std::size_t j) { return Vec3(axes * g[j].translation() * scale); };
+        // Facing from hips and shoulders: forward = left x up.
+        Vec3 left = (at(left_arm) - at(right_arm)) + (at(left_leg) - at(right_leg));
+        Vec3 forward(left.y(), -left.x(), 0);
+        if (forward.norm() < 1e-9) forward = Vec3::UnitX();
+        forward.normalize();
+        head_rotation[std::size_t(f)] = axes * g[head].linear() * axes.transpose();
+        head_local_forward += head_rotation[std::size_t(f)].transpose() * forward;
+        Vec3 top = head_end >= 0 ? at(std::size_t(head_end)) : at(head) + Vec3(0, 0, 0.2);
+        track[std::size_t(f)].eye = 0.5 * (at(head) + top);
+        track[std::size_t(f)].gaze = forward;
+    }
+    // The head's own forward axis, calibrated over the take: the direction that, carried by the
+    // head's rotation, best matches the body's facing. Gaze then follows the head.
+    if (head_local_forward.norm() > 1e-9) {
+        head_local_forward.normalize();
+        for (std::size_t f = 0; f < track.size(); ++f) {
+            track[f].gaze = (head_rotation[f] * head_local_forward).normalized();
+            track[f].eye += 0.08 * track[f].gaze;  // from the middle of the head to between the eyes
+        }
+    }
+    return track;
 }
 
 MeshSequence skeleton_body_sequence(const BvhMotion& motion, const FrameRange& range, const SkeletonBodyOptions& options) {

@@ -17,6 +17,26 @@ struct SkeletonBodyOptions {
     int cap_rings = 4;
 };
 
+// The body part (head, torso, left_upper_arm, left_forearm, left_hand, ..., right_foot) of the bone
+// that starts at joint `parent`.
+std::string body_part(const std::string& parent);
+const std::vector<std::string>& body_part_names();
+
+struct BodyPart {
+    std::string name;
+    TriangleMesh mesh;  // closed: a union of capsules
+};
+// The body at BVH frame `frame` split by body part, in metres, z up.
+std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options);
+
+// Per BVH frame: eye position (between the eyes) and gaze direction (from the head's rotation,
+// calibrated against the facing given by hips and shoulders), metres, z up.
+struct TrackSample {
+    Vec3 eye = Vec3::Zero();
+    Vec3 gaze = Vec3::UnitX();
+};
+std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options);
+
 // The body at BVH frame `frame`, in metres, z up.
 TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options);
 

@@ -7,6 +7,7 @@ namespace amhv::cli {
 // Registers the subcommands; the returned callbacks run after parsing.
 void add_devices_command(CLI::App& app);
 void add_mhv_command(CLI::App& app);
+void add_scene_commands(CLI::App& app);  // check, sweep
 
 // Runs the whole program; returns the exit code. Every failure becomes one "amhv: error: ..." line.
 int run(int argc, char** argv);

@@ -25,6 +25,7 @@ int run(int argc, char** argv) {
     });
     add_devices_command(app);
     add_mhv_command(app);
+    add_scene_commands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -1,6 +1,7 @@
 #include "gpu/sweep_vulkan.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <memory>
 
@@ -20,6 +21,8 @@ struct OverlapParams {
     std::int32_t columns_per_item, rows_per_item, items_x, items_per_pose;
     std::int32_t range_i0, range_j0, range_ni, range_nj;
     std::int32_t angle_first, explicit_poses, flag_words, flag_offset;
+    std::int32_t word_first, word_last;
+    std::int32_t frames_per_item, spatial_items;
 };
 static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
@@ -35,6 +38,7 @@ constexpr std::int32_t kModeAny = 0, kModePerFrame = 1;
 struct GpuVolume {
     ColumnVolume columns;
     std::unique_ptr<Buffer> bits, rows, angles;
+    std::unique_ptr<Buffer> frame_boxes, angle_frame_boxes;  // PER_FRAME tests only
 };
 
 enum class Want { Overlap, NoOverlap, EveryFrame };
@@ -45,11 +49,16 @@ struct OverlapTest {
     int frames;         // 0: unions only
     Want want;
     std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
+    // The z words where both volumes have bits (first > last: the test cannot find an overlap).
+    int word_first() const { return std::max(fixed->columns.word_first, moving->columns.word_first); }
+    int word_last() const { return std::min(fixed->columns.word_last, moving->columns.word_last); }
+    int words() const { return std::max(0, word_last() - word_first() + 1); }
     int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
 };
 
 struct Blocks {
     int columns, rows, items_x, items_per_pose;
+    int frames_per_item = 0, spatial_items = 1;
 };
 
 std::unique_ptr<Buffer> upload(Context& context, const void* data, std::size_t bytes) {
@@ -67,7 +76,7 @@ void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, std::uin
 VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
     : context_(context),
       options_(options),
-      overlap_(context, sweep_overlap_spv, 6, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}) {}
+      overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -146,11 +155,30 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             }
             test.moving->angles = upload(context_, table.data(), table.size());
         }
+    for (const auto& stage : stages)
+        for (const OverlapTest& test : stage) {
+            if (test.want != Want::EveryFrame) continue;
+            if (!test.fixed->frame_boxes) {
+                const auto& boxes = test.fixed->columns.slot_boxes;
+                test.fixed->frame_boxes = upload(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
+            }
+            if (!test.moving->angle_frame_boxes) {
+                const ColumnVolume& m = test.moving->columns;
+                std::vector<std::array<std::int32_t, 4>> boxes;
+                for (int k = 0; k < range.angles; ++k)
+                    for (int t = 0; t < m.frames(); ++t)
+                        boxes.push_back(mapped_bounds(m, m.slot_boxes[std::size_t(1 + t)], trig[std::size_t(k)], root_a, root_b));
+                test.moving->angle_frame_boxes = upload(context_, boxes.data(), boxes.size() * 16);
+            }
+        }
 
     // Work blocks per test: loop iterations per item stay under the budget.
     auto blocks_of = [&](const OverlapTest& test) {
         const ColumnVolume& s = test.fixed->columns;
-        const std::uint64_t per_column = std::uint64_t(s.zwords) * (1 + test.frames) + 2;
+        // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
+        // frame, then give the item as many frames as fit.
+        const bool per_frame = test.want == Want::EveryFrame;
+        const std::uint64_t per_column = per_frame ? std::uint64_t(test.words()) + 2 : std::uint64_t(test.words()) * (1 + test.frames) + 2;
         if (per_column > options_.loop_budget)
             fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
                  "or a shorter segment", per_column, options_.loop_budget);
@@ -159,6 +187,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         b.rows = int(std::clamp<std::uint64_t>(options_.loop_budget / (per_column * std::uint64_t(b.columns)), 1, std::uint64_t(std::max(s.ny, 1))));
         b.items_x = (std::max(s.nx, 1) + b.columns - 1) / b.columns;
         b.items_per_pose = b.items_x * ((std::max(s.ny, 1) + b.rows - 1) / b.rows);
+        if (per_frame) {
+            const std::uint64_t per_frame_cost = per_column * std::uint64_t(b.columns) * std::uint64_t(b.rows) + 4;
+            b.frames_per_item = int(std::clamp<std::uint64_t>(options_.loop_budget / per_frame_cost, 1, std::uint64_t(test.frames)));
+            b.spatial_items = b.items_per_pose;
+            b.items_per_pose *= (test.frames + b.frames_per_item - 1) / b.frames_per_item;
+        }
         return b;
     };
 
@@ -202,14 +236,17 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const ColumnVolume& m = test.moving->columns;
             Blocks b = blocks_of(test);
             sets.push_back(overlap_.bind({test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(),
-                                          test.moving->angles.get(), pose_list ? poses.get() : &no_poses, flags.get()}));
+                                          test.moving->angles.get(), pose_list ? poses.get() : &no_poses, flags.get(),
+                                          test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses,
+                                          test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses}));
             OverlapParams params{0, 0,
                                  std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
                                  std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
                                  s.slots, s.zwords, test.frames, test.mode(),
                                  b.columns, b.rows, b.items_x, b.items_per_pose,
                                  range.i_first, range.j_first, range.width(), range.height(),
-                                 angle_first, pose_list ? 1 : 0, test.flag_words(), std::int32_t(offsets[t])};
+                                 angle_first, pose_list ? 1 : 0, test.flag_words(), std::int32_t(offsets[t]),
+                                 test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
             const std::uint64_t items = count * std::uint64_t(b.items_per_pose);
             stats_.work_items += items;
             sequence.dispatch(overlap_, sets.back(), params, std::uint32_t(items));
@@ -257,6 +294,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const int batch_angles = std::min(angles_per_batch, range.angles - angle_first);
         const std::uint64_t batch_poses = per_angle * std::uint64_t(batch_angles);
         stats_.poses_per_stage[0] += batch_poses;
+        auto clock = std::chrono::steady_clock::now();
+        auto lap = [&clock](double& total) {
+            auto now = std::chrono::steady_clock::now();
+            total += std::chrono::duration<double>(now - clock).count();
+            clock = now;
+        };
         auto contact = run_stage(stages[0], nullptr, batch_poses, angle_first);
         std::vector<std::array<std::int32_t, 4>> survivors;
         for (std::uint64_t p = 0; p < batch_poses; ++p) {
@@ -265,6 +308,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             survivors.push_back({angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
                                  range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0});
         }
+        lap(stats_.seconds_per_stage[0]);
         for (int stage = 1; stage < 4; ++stage) {
             stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
             auto passes = run_stage(stages[std::size_t(stage)], &survivors, 0, 0);
@@ -274,8 +318,10 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 else result.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
             }
             survivors = std::move(next);
+            lap(stats_.seconds_per_stage[std::size_t(stage)]);
         }
         for (const auto& p : survivors) result.outcomes[outcome_index(p)] = PoseOutcome::Solution;
+        if (progress) progress(angle_first + batch_angles, range.angles);
     }
     result.count();
     return result;

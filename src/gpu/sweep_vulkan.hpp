@@ -4,6 +4,7 @@
 // tests (shaders/sweep_overlap.comp) over batches of poses: contact on every pose of the range,
 // then the dictionary on the poses in contact, fidelity on those, visibility on those. It only
 // reads back one flag word per pose and test to decide which poses go on to the next stage.
+#include <array>
 #include <cstdint>
 
 #include "gpu/compute.hpp"
@@ -21,6 +22,7 @@ struct SweepStats {
     std::uint64_t work_items = 0;  // invocations over all stages
     std::uint64_t submits = 0;
     std::array<std::uint64_t, 4> poses_per_stage{};  // poses entering contact, dictionary, fidelity, visibility
+    std::array<double, 4> seconds_per_stage{};        // wall time of each stage, host work included
 };
 
 class VulkanSweeper : public Sweeper {

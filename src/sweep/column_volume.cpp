@@ -56,12 +56,17 @@ ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids) {
 
 void ColumnVolume::finish() {
     rows.assign(std::size_t(ny), {1, 0});
-    x_first = y_first = std::numeric_limits<int>::max();
-    x_last = y_last = std::numeric_limits<int>::min();
+    x_first = y_first = word_first = std::numeric_limits<int>::max();
+    x_last = y_last = word_last = std::numeric_limits<int>::min();
     for (int y = 0; y < ny; ++y)
         for (int x = 0; x < nx; ++x) {
             const std::uint32_t* c = column(x, y);
             if (std::none_of(c, c + zwords, [](std::uint32_t w) { return w != 0; })) continue;
+            for (int w = 0; w < zwords; ++w)
+                if (c[w]) {
+                    word_first = std::min(word_first, w);
+                    word_last = std::max(word_last, w);
+                }
             auto& row = rows[std::size_t(y)];
             if (row[0] > row[1]) row = {x, x};
             row[1] = x;
@@ -70,7 +75,19 @@ void ColumnVolume::finish() {
             y_first = std::min(y_first, y);
             y_last = std::max(y_last, y);
         }
-    if (x_first > x_last) x_first = y_first = 1, x_last = y_last = 0;
+    if (x_first > x_last) x_first = y_first = word_first = 1, x_last = y_last = word_last = 0;
+    slot_boxes.assign(std::size_t(slots), {1, 1, 0, 0});
+    for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x) {
+            const std::uint32_t* c = column(x, y);
+            for (int slot = 0; slot < slots; ++slot) {
+                const std::uint32_t* words = c + std::size_t(slot) * zwords;
+                if (std::none_of(words, words + zwords, [](std::uint32_t w) { return w != 0; })) continue;
+                auto& b = slot_boxes[std::size_t(slot)];
+                if (b[0] > b[2]) b = {x, y, x, y};
+                b = {std::min(b[0], x), std::min(b[1], y), std::max(b[2], x), std::max(b[3], y)};
+            }
+        }
 }
 
 ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
@@ -114,7 +131,12 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
 
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
                                           const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b) {
-    if (moving.empty()) return {1, 1, 0, 0};
+    return mapped_bounds(moving, {moving.x_first, moving.y_first, moving.x_last, moving.y_last}, trig, root_a, root_b);
+}
+
+std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const std::array<std::int32_t, 4>& box, const posemap::Trig& trig,
+                                          const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b) {
+    if (box[0] > box[2]) return {1, 1, 0, 0};
     // Forward image of the occupied cells' corners (voxel units): u = R(theta) (b - C^B) + C^A.
     const double scale = double(std::int64_t(1) << posemap::kTrigBits);
     const double c = double(trig.cos_q) / scale, s = double(trig.sin_q) / scale;
@@ -123,8 +145,8 @@ std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const pose
     const double bx = double(root_b[0]) / unit, by = double(root_b[1]) / unit;
     double x_min = 1e300, x_max = -1e300, y_min = 1e300, y_max = -1e300;
     for (int corner = 0; corner < 4; ++corner) {
-        double px = double(moving.x0 + ((corner & 1) ? moving.x_last + 1 : moving.x_first)) - bx;
-        double py = double(moving.y0 + ((corner & 2) ? moving.y_last + 1 : moving.y_first)) - by;
+        double px = double(moving.x0 + ((corner & 1) ? box[2] + 1 : box[0])) - bx;
+        double py = double(moving.y0 + ((corner & 2) ? box[3] + 1 : box[1])) - by;
         double ux = c * px - s * py + ax, uy = s * px + c * py + ay;
         x_min = std::min(x_min, ux), x_max = std::max(x_max, ux);
         y_min = std::min(y_min, uy), y_max = std::max(y_max, uy);

@@ -32,6 +32,11 @@ struct ColumnVolume {
     std::vector<std::array<std::int32_t, 2>> rows;
     // Occupied columns' bounding box, local (x_first > x_last when empty).
     int x_first = 1, x_last = 0, y_first = 1, y_last = 0;
+    // First and last z word with a set bit in any column's union (word_first > word_last when empty).
+    int word_first = 1, word_last = 0;
+
+    // Per slot: occupied columns' box, local [x_first, y_first, x_last, y_last] (empty: first > last).
+    std::vector<std::array<std::int32_t, 4>> slot_boxes;
 
     int frames() const { return slots - 1; }
     std::size_t column_words() const { return std::size_t(slots) * zwords; }
@@ -51,6 +56,9 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
 // Conservative bounding box [x_first, y_first, x_last, y_last] (global A lattice) of the A columns
 // that the pull mapping of angle `trig` (pose offset 0) sends into an occupied column of `moving`.
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
+                                          const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b);
+// The same for the occupied box of one slot (`box` local, as in slot_boxes).
+std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const std::array<std::int32_t, 4>& box, const posemap::Trig& trig,
                                           const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b);
 
 }  // namespace amhv

@@ -56,7 +56,8 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
             for (const MeshFrame* m : *list) bounds.extend(m->mesh.bounds());
         // The whole body includes the separate parts (e.g. a sword held in the hand).
         std::vector<const MeshFrame*> all = f.whole;
-        if (parts.interest == PartRule::Meshes) all.insert(all.end(), f.interest.begin(), f.interest.end());
+        if (parts.interest == PartRule::Meshes && parts.interest_is_separate) all.insert(all.end(), f.interest.begin(), f.interest.end());
+        if (parts.fidelity == PartRule::Meshes && parts.fidelity_is_separate) all.insert(all.end(), f.fidelity.begin(), f.fidelity.end());
         whole.push_back(all);
         interest.push_back(f.interest);
         fidelity.push_back(f.fidelity);

@@ -29,6 +29,10 @@ struct ObjectParts {
     std::optional<Box3> interest_box;
     PartRule fidelity = PartRule::WholeMinusInterest;
     std::optional<Box3> fidelity_box;
+    // True when the part's meshes are not among the whole body's (a sword next to the body): the
+    // whole body is then the union of both.
+    bool interest_is_separate = true;
+    bool fidelity_is_separate = false;
 };
 
 // Voxelises the frames on one grid covering every mesh (edge `voxel`) and derives the parts.

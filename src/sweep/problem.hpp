@@ -2,6 +2,7 @@
 // One key segment pair's constraint satisfaction problem (METHOD.md sections 4-6) and its answer.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -93,6 +94,8 @@ std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& 
 class Sweeper {
 public:
     virtual ~Sweeper() = default;
+    // Called with (angles done, angles in all) as the sweep goes on; may be empty.
+    std::function<void(int, int)> progress;
     virtual std::string name() const = 0;
     virtual SweepResult sweep(const SweepProblem& problem) = 0;
 };

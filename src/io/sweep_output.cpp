@@ -1,0 +1,119 @@
+#include "io/sweep_output.hpp"
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
+#include <png.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+namespace {
+
+void write_png(const std::filesystem::path& path, int width, int height, const std::vector<std::uint8_t>& rgb) {
+    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "wb"), &std::fclose);
+    if (!file) fail(path.string(), "cannot create the file");
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) fail(path.string(), "libpng could not start");
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fail(path.string(), "libpng failed to write the image");
+    }
+    png_init_io(png, file.get());
+    png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int row = 0; row < height; ++row)
+        png_write_row(png, const_cast<png_bytep>(rgb.data() + std::size_t(row) * width * 3));
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+}
+
+}  // namespace
+
+std::array<std::uint8_t, 3> outcome_colour(PoseOutcome outcome) {
+    switch (outcome) {
+        case PoseOutcome::FailsContact: return {24, 24, 24};       // no contact: near black
+        case PoseOutcome::FailsDictionary: return {200, 40, 40};   // wrong surfaces meet: red
+        case PoseOutcome::FailsFidelity: return {230, 150, 30};    // bodies interpenetrate: orange
+        case PoseOutcome::FailsVisibility: return {60, 90, 220};   // cannot see each other: blue
+        default: return {60, 220, 90};                             // solution: green
+    }
+}
+
+void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions) {
+    std::ofstream out(path);
+    if (!out) fail(path.string(), "cannot create the file");
+    out << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n";
+    for (const Solution& s : solutions)
+        out << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
+    if (!out) fail(path.string(), "write failed");
+}
+
+int write_feasibility_maps(const std::filesystem::path& folder, const SweepProblem& problem, const SweepResult& result) {
+    Imf::setGlobalThreadCount(0);  // byte-identical files
+    std::filesystem::create_directories(folder);
+    const PoseRange& r = result.range;
+    const int width = r.width(), height = r.height();
+    if (width <= 0 || height <= 0) return 0;
+    int files = 0;
+    std::vector<float> planes(std::size_t(4) * width * height);
+    for (int k = 0; k < r.angles; ++k) {
+        for (int row = 0; row < height; ++row)
+            for (int col = 0; col < width; ++col) {
+                PoseOutcome outcome = result.at(r.i_first + col, r.j_last - row, k);  // top row = largest y
+                auto rgb = outcome_colour(outcome);
+                std::size_t pixel = std::size_t(row) * width + col;
+                for (int c = 0; c < 3; ++c) planes[std::size_t(c) * width * height + pixel] = std::pow(rgb[std::size_t(c)] / 255.0f, 2.2f);
+                planes[std::size_t(3) * width * height + pixel] = float(int(outcome));
+            }
+        Imf::Header header(width, height);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        const char* channels[] = {"R", "G", "B", "passed"};
+        for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        auto put = [&](const char* key, const std::string& value) { header.insert(key, Imf::StringAttribute(value)); };
+        put("amhv:theta_deg", fmt::format("{}", describe(problem, 0, 0, k).theta_deg));
+        put("amhv:x_m", fmt::format("column c is x = {} + c * {} m (offset of B's root from A's root)", r.i_first * problem.voxel, problem.voxel));
+        put("amhv:y_m", fmt::format("row 0 is y = {} m, each row down {} m less", r.j_last * problem.voxel, problem.voxel));
+        put("amhv:passed", "constraints passed in order contact, dictionary, fidelity, visibility; 4 = solution");
+        Imf::FrameBuffer buffer;
+        for (int c = 0; c < 4; ++c)
+            buffer.insert(channels[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.data() + std::size_t(c) * width * height),
+                                                  sizeof(float), sizeof(float) * std::size_t(width)));
+        auto path = folder / fmt::format("angle_{:03d}.exr", k);
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(buffer);
+        file.writePixels(height);
+        ++files;
+    }
+    // Montage: angles tiled in rows, each tile at most 160 px (nearest sampling), 2 px gaps.
+    const int scale_down = std::max(1, (std::max(width, height) + 159) / 160);
+    const int tile_w = (width + scale_down - 1) / scale_down, tile_h = (height + scale_down - 1) / scale_down;
+    const int columns = std::min(r.angles, int(std::ceil(std::sqrt(double(r.angles)))));
+    const int rows = (r.angles + columns - 1) / columns;
+    const int image_w = columns * (tile_w + 2) + 2, image_h = rows * (tile_h + 2) + 2;
+    std::vector<std::uint8_t> rgb(std::size_t(image_w) * image_h * 3, 255);
+    for (int k = 0; k < r.angles; ++k) {
+        int ox = 2 + (k % columns) * (tile_w + 2), oy = 2 + (k / columns) * (tile_h + 2);
+        for (int ty = 0; ty < tile_h; ++ty)
+            for (int tx = 0; tx < tile_w; ++tx) {
+                auto colour = outcome_colour(result.at(r.i_first + tx * scale_down, r.j_last - ty * scale_down, k));
+                std::uint8_t* p = rgb.data() + (std::size_t(oy + ty) * image_w + (ox + tx)) * 3;
+                p[0] = colour[0], p[1] = colour[1], p[2] = colour[2];
+            }
+    }
+    write_png(folder / "montage.png", image_w, image_h, rgb);
+    return files + 1;
+}
+
+}  // namespace amhv

@@ -1,0 +1,21 @@
+#pragma once
+// Files of a sweep (METHOD.md section 10): the solution group as CSV and the feasibility maps, one
+// FLOAT EXR per sampled angle plus a PNG montage of all angles.
+#include <filesystem>
+
+#include "sweep/problem.hpp"
+
+namespace amhv {
+
+// Header x,y,theta_deg,L,thetaA_deg,thetaB_deg; one row per solution in (theta, y, x) order.
+void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions);
+
+// `folder`/angle_KKK.exr: pixel (x, y) of angle k; channel `passed` = how many of contact,
+// dictionary, fidelity, visibility the pose passed in that order (4 = solution), R G B = its colour.
+// `folder`/montage.png: every angle's map, tiled in angle order. Returns the number of files.
+int write_feasibility_maps(const std::filesystem::path& folder, const SweepProblem& problem, const SweepResult& result);
+
+// The colour of an outcome in the maps (sRGB 0..255).
+std::array<std::uint8_t, 3> outcome_colour(PoseOutcome outcome);
+
+}  // namespace amhv

@@ -1,0 +1,428 @@
+#include "scene/scene.hpp"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "core/error.hpp"
+#include "core/normalise.hpp"
+#include "io/bvh.hpp"
+
+namespace amhv {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Reads one TOML table, remembering which keys it consumed so unknown keys can be reported.
+class TableReader {
+public:
+    TableReader(const toml::table& table, std::string path, const fs::path& file) : table_(table), path_(std::move(path)), file_(file) {}
+
+    std::string key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+    int line(const toml::node* node) const { return node ? int(node->source().begin.line) : int(table_.source().begin.line); }
+    std::string where(const std::string& key, const toml::node* node) const {
+        return fmt::format("{}:{}: {}", file_.string(), line(node), key_path(key));
+    }
+    template <typename... Args>
+    [[noreturn]] void error(const std::string& key, const toml::node* node, fmt::format_string<Args...> format, Args&&... args) const {
+        fail(where(key, node), format, std::forward<Args>(args)...);
+    }
+
+    const toml::node* get(const std::string& key) {
+        used_.insert(key);
+        return table_.get(key);
+    }
+    bool has(const std::string& key) const { return table_.contains(key); }
+
+    std::optional<double> number(const std::string& key, double min, double max, bool min_inclusive = true) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        if (!node->is_number()) error(key, node, "must be a number, not {}", type_name(*node));
+        double v = node->value<double>().value();
+        if (!std::isfinite(v) || v < min || v > max || (!min_inclusive && v == min))
+            error(key, node, "{} is out of range ({}{}, {}]", v, min_inclusive ? "[" : "(", min, max);
+        return v;
+    }
+    std::optional<int> integer(const std::string& key, int min, int max) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        if (!node->is_integer()) error(key, node, "must be an integer, not {}", type_name(*node));
+        std::int64_t v = node->value<std::int64_t>().value();
+        if (v < min || v > max) error(key, node, "{} is out of range [{}, {}]", v, min, max);
+        return int(v);
+    }
+    std::optional<std::string> string(const std::string& key) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        if (!node->is_string()) error(key, node, "must be a string, not {}", type_name(*node));
+        return node->value<std::string>().value();
+    }
+    std::optional<bool> boolean(const std::string& key) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        if (!node->is_boolean()) error(key, node, "must be true or false, not {}", type_name(*node));
+        return node->value<bool>().value();
+    }
+    template <std::size_t N>
+    std::optional<std::array<double, N>> numbers(const std::string& key) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        const toml::array* array = node->as_array();
+        if (!array || array->size() != N) error(key, node, "must be an array of {} numbers", N);
+        std::array<double, N> out{};
+        for (std::size_t i = 0; i < N; ++i) {
+            const toml::node& item = *array->get(i);
+            if (!item.is_number() || !std::isfinite(item.value<double>().value())) error(key, node, "must be an array of {} numbers", N);
+            out[i] = item.value<double>().value();
+        }
+        return out;
+    }
+    std::optional<std::array<int, 2>> frame_range(const std::string& key) {
+        const toml::node* node = get(key);
+        if (!node) return std::nullopt;
+        const toml::array* array = node->as_array();
+        if (!array || array->size() != 2 || !array->get(0)->is_integer() || !array->get(1)->is_integer())
+            error(key, node, "must be [first, last], two frame numbers");
+        std::array<int, 2> out{int(array->get(0)->value<std::int64_t>().value()), int(array->get(1)->value<std::int64_t>().value())};
+        if (out[0] > out[1]) error(key, node, "first frame {} is after last frame {}", out[0], out[1]);
+        return out;
+    }
+    std::vector<std::string> strings(const std::string& key) {
+        const toml::node* node = get(key);
+        const toml::array* array = node ? node->as_array() : nullptr;
+        if (!array || array->empty()) error(key, node, "must be a non-empty array of strings");
+        std::vector<std::string> out;
+        for (const toml::node& item : *array) {
+            if (!item.is_string()) error(key, node, "must be an array of strings");
+            out.push_back(item.value<std::string>().value());
+        }
+        return out;
+    }
+    TableReader table(const std::string& key, bool required = false) {
+        const toml::node* node = get(key);
+        if (!node) {
+            if (required) error(key, nullptr, "is missing");
+            static const toml::table empty;
+            return TableReader(empty, key_path(key), file_);
+        }
+        if (!node->is_table()) error(key, node, "must be a table, not {}", type_name(*node));
+        return TableReader(*node->as_table(), key_path(key), file_);
+    }
+    // Every key of the table must have been read.
+    void finish() const {
+        for (const auto& [key, node] : table_)
+            if (!used_.count(std::string(key.str())))
+                fail(fmt::format("{}:{}: {}", file_.string(), node.source().begin.line, key_path(std::string(key.str()))), "unknown key");
+    }
+    const fs::path& file() const { return file_; }
+
+private:
+    static std::string type_name(const toml::node& node) {
+        switch (node.type()) {
+            case toml::node_type::string: return "a string";
+            case toml::node_type::integer: return "an integer";
+            case toml::node_type::floating_point: return "a number";
+            case toml::node_type::boolean: return "a boolean";
+            case toml::node_type::array: return "an array";
+            case toml::node_type::table: return "a table";
+            default: return "a date or time";
+        }
+    }
+    const toml::table& table_;
+    std::string path_;
+    fs::path file_;
+    std::set<std::string> used_;
+};
+
+std::string resolve(const fs::path& scene_file, const std::string& path) {
+    fs::path p(path);
+    if (p.is_relative()) p = scene_file.parent_path() / p;
+    return p.lexically_normal().string();
+}
+
+SceneObject read_object(TableReader& objects, const std::string& name) {
+    TableReader t = objects.table(name, true);
+    SceneObject o;
+    o.name = name;
+    auto meshes = t.string("meshes");
+    auto bvh = t.string("bvh");
+    if (meshes.has_value() == bvh.has_value()) t.error("meshes", nullptr, "give exactly one of 'meshes' (a mesh sequence) and 'bvh'");
+    if (meshes) o.meshes = resolve(t.file(), *meshes);
+    if (bvh) o.bvh = resolve(t.file(), *bvh);
+    const std::string default_unit = bvh ? "0.0564444" : "m", default_up = bvh ? "y" : "z";
+    try {
+        o.units.metres_per_unit = parse_unit(t.string("unit").value_or(default_unit), t.where("unit", t.get("unit")));
+        o.units.up = parse_up_axis(t.string("up").value_or(default_up), t.where("up", t.get("up")));
+    } catch (const Error&) {
+        throw;
+    }
+    if (auto labels = t.string("labels")) {
+        if (bvh) t.error("labels", t.get("labels"), "a BVH body already has part labels (head, torso, left_hand, ...)");
+        o.labels = resolve(t.file(), *labels);
+    }
+    if (auto track = t.string("track")) o.track = resolve(t.file(), *track);
+    o.facing_deg = t.number("facing_deg", -360, 360);
+    TableReader placement = t.table("placement");
+    o.placement.x = placement.number("x", -1e4, 1e4).value_or(0);
+    o.placement.y = placement.number("y", -1e4, 1e4).value_or(0);
+    o.placement.yaw_deg = placement.number("yaw_deg", -360, 360).value_or(0);
+    placement.finish();
+
+    // The frames available.
+    const toml::node* source_node = t.get(bvh ? "bvh" : "meshes");
+    if (bvh) {
+        if (!fs::is_regular_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
+        BvhMotion motion = read_bvh(o.bvh);
+        o.frame_first = 0;
+        o.frame_last = motion.frame_count - 1;
+        o.fps = 1.0 / motion.frame_time;
+    } else {
+        std::vector<FrameFile> frames;
+        try {
+            frames = list_frames(o.meshes, std::nullopt);
+        } catch (const Error& e) {
+            fail(t.where("meshes", source_node), "{}", e.what());
+        }
+        if (frames.empty()) t.error("meshes", source_node, "'{}' names no mesh file", o.meshes);
+        o.frame_first = frames.front().number;
+        o.frame_last = frames.back().number;
+    }
+    if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
+    t.finish();
+    return o;
+}
+
+PartSpec read_part(TableReader& parent, const std::string& key, const SceneObject& object, PartSpec fallback) {
+    const toml::node* node = parent.get(key);
+    if (!node) return fallback;
+    PartSpec part;
+    if (node->is_string()) {
+        std::string word = node->value<std::string>().value();
+        if (word == "whole") part.kind = PartSpec::Kind::Whole;
+        else if (word == "whole_minus_interest" && key.find("fidelity") != std::string::npos) part.kind = PartSpec::Kind::WholeMinusInterest;
+        else parent.error(key, node, "'{}' is not a part; use \"whole\"{}, or a table with meshes, parts, parts_except or box", word,
+                          key.find("fidelity") != std::string::npos ? ", \"whole_minus_interest\"" : "");
+        return part;
+    }
+    if (!node->is_table()) parent.error(key, node, "must be a string or a table");
+    TableReader t(*node->as_table(), parent.key_path(key), parent.file());
+    int given = int(t.has("meshes")) + int(t.has("parts")) + int(t.has("parts_except")) + int(t.has("box"));
+    if (given != 1) t.error("", node, "give exactly one of meshes, parts, parts_except and box");
+    if (auto meshes = t.string("meshes")) {
+        part.kind = PartSpec::Kind::Meshes;
+        part.meshes = resolve(t.file(), *meshes);
+    } else if (t.has("parts") || t.has("parts_except")) {
+        const bool except = t.has("parts_except");
+        part.kind = except ? PartSpec::Kind::PartsExcept : PartSpec::Kind::Parts;
+        part.labels = t.strings(except ? "parts_except" : "parts");
+        if (object.bvh.empty() && object.labels.empty())
+            t.error(except ? "parts_except" : "parts", node, "object {} has no part labels (give it 'labels' or use a BVH)", object.name);
+    } else {
+        TableReader box = t.table("box");
+        auto min = box.numbers<3>("min"), max = box.numbers<3>("max");
+        if (!min || !max) box.error("min", nullptr, "a box needs min = [x, y, z] and max = [x, y, z] (metres, z up)");
+        part.kind = PartSpec::Kind::Box;
+        part.box.min = Vec3((*min)[0], (*min)[1], (*min)[2]);
+        part.box.max = Vec3((*max)[0], (*max)[1], (*max)[2]);
+        if (!(part.box.min.array() < part.box.max.array()).all()) box.error("max", box.get("max"), "must be above min on every axis");
+        box.finish();
+    }
+    t.finish();
+    return part;
+}
+
+void read_parts(TableReader& segment, const std::string& key, const Scene& scene, PartSpec& a, PartSpec& b, PartSpec fallback) {
+    TableReader t = segment.table(key);
+    a = read_part(t, "A", scene.a, fallback);
+    b = read_part(t, "B", scene.b, fallback);
+    t.finish();
+}
+
+}  // namespace
+
+std::string PartSpec::describe() const {
+    auto join = [](const std::vector<std::string>& v) {
+        std::string s;
+        for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+        return s;
+    };
+    switch (kind) {
+        case Kind::Whole: return "whole";
+        case Kind::WholeMinusInterest: return "whole_minus_interest";
+        case Kind::Meshes: return "meshes " + meshes;
+        case Kind::Parts: return "parts " + join(labels);
+        case Kind::PartsExcept: return "parts_except " + join(labels);
+        default: return fmt::format("box [{}, {}, {}] - [{}, {}, {}]", box.min.x(), box.min.y(), box.min.z(), box.max.x(), box.max.y(), box.max.z());
+    }
+}
+
+int Sampling::angles() const { return int(std::lround(360.0 / angle_step_deg)); }
+
+Scene load_scene(const fs::path& file) {
+    if (!fs::is_regular_file(file)) fail(file.string(), "no such scene file");
+    toml::table root;
+    try {
+        root = toml::parse_file(file.string());
+    } catch (const toml::parse_error& e) {
+        fail(fmt::format("{}:{}", file.string(), e.source().begin.line), "{}", std::string(e.description()));
+    }
+    Scene scene;
+    scene.file = fs::absolute(file).lexically_normal();
+    TableReader top(root, "", scene.file);
+
+    TableReader sampling = top.table("sampling");
+    scene.sampling.voxel = sampling.number("voxel", 0, 1, false).value_or(0.01);
+    if (scene.sampling.voxel < 0.001) sampling.error("voxel", sampling.get("voxel"), "{} m is below the 1 mm the solver supports", scene.sampling.voxel);
+    scene.sampling.angle_step_deg = sampling.number("angle_step_deg", 0, 180, false).value_or(2.0);
+    double steps = 360.0 / scene.sampling.angle_step_deg;
+    if (std::abs(steps - std::round(steps)) > 1e-9)
+        sampling.error("angle_step_deg", sampling.get("angle_step_deg"), "{} does not divide 360", scene.sampling.angle_step_deg);
+    for (const char* key : {"x_range", "y_range"}) {
+        auto r = sampling.numbers<2>(key);
+        if (r && (*r)[0] > (*r)[1]) sampling.error(key, sampling.get(key), "first value is above the second");
+        (std::string(key) == "x_range" ? scene.sampling.x_range : scene.sampling.y_range) = r;
+    }
+    sampling.finish();
+
+    TableReader weights = top.table("weights");
+    Weights& w = scene.weights;
+    w.lambda = weights.number("lambda", 0, 1e6).value_or(w.lambda);
+    w.delta = weights.number("delta", 0, 1).value_or(w.delta);
+    w.alpha = weights.number("alpha", 0, 1e6).value_or(w.alpha);
+    w.v_c = weights.number("v_c", 0, 100).value_or(w.v_c);
+    w.r_c = weights.number("r_c", 0, 10).value_or(w.r_c);
+    w.w_a = weights.number("w_A", 0, 1e12, false).value_or(w.w_a);
+    w.w_b = weights.number("w_B", 0, 1e12, false).value_or(w.w_b);
+    w.mu = weights.number("mu", 0, 1e6).value_or(w.mu);
+    if (weights.has("a_rotations_deg")) {
+        const toml::node* node = weights.get("a_rotations_deg");
+        const toml::array* array = node->as_array();
+        if (!array || array->empty()) weights.error("a_rotations_deg", node, "must be a non-empty array of angles in degrees");
+        w.a_rotations_deg.clear();
+        for (const toml::node& item : *array) {
+            if (!item.is_number() || std::abs(item.value<double>().value()) > 180)
+                weights.error("a_rotations_deg", node, "must hold angles in degrees within [-180, 180]");
+            w.a_rotations_deg.push_back(item.value<double>().value());
+        }
+    }
+    weights.finish();
+
+    TableReader objects = top.table("objects", true);
+    scene.a = read_object(objects, "A");
+    scene.b = read_object(objects, "B");
+    objects.finish();
+
+    const toml::node* segments_node = top.get("segments");
+    const toml::array* segments = segments_node ? segments_node->as_array() : nullptr;
+    if (!segments || segments->empty())
+        top.error("segments", segments_node, "give at least one key segment pair as [[segments]] with a, b and type");
+    for (std::size_t s = 0; s < segments->size(); ++s) {
+        const toml::node& node = *segments->get(s);
+        if (!node.is_table()) top.error(fmt::format("segments[{}]", s + 1), &node, "must be a table");
+        TableReader t(*node.as_table(), fmt::format("segments[{}]", s + 1), file);
+        KeySegment k;
+        k.index = int(s) + 1;
+        k.line = t.line(&node);
+        auto a = t.frame_range("a"), b = t.frame_range("b");
+        if (!a || !b) t.error(a ? "b" : "a", &node, "is missing: the key segment's frame range as [first, last]");
+        k.a = *a;
+        k.b = *b;
+        for (auto [range, object, key] : {std::tuple{k.a, &scene.a, "a"}, std::tuple{k.b, &scene.b, "b"}})
+            if (range[0] < object->frame_first || range[1] > object->frame_last)
+                t.error(key, t.get(key), "frames {}..{} are beyond object {}'s frames {}..{}", range[0], range[1], object->name,
+                        object->frame_first, object->frame_last);
+        auto type = t.string("type");
+        if (!type) t.error("type", &node, "is missing: the interaction type (e.g. \"+&-\", \"0&0a\")");
+        k.type = parse_interaction_type(*type, t.where("type", t.get("type")));
+        k.tolerance = t.integer("tolerance", 0, 1000).value_or(0);
+        TableReader vis = t.table("visibility");
+        k.visibility.enabled = vis.boolean("enabled").value_or(false);
+        k.visibility.half_angle_deg = vis.number("half_angle_deg", 0, 90, false).value_or(30);
+        k.visibility.range = vis.number("range", 0, 1000).value_or(0);
+        vis.finish();
+        read_parts(t, "interest", scene, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
+        read_parts(t, "fidelity", scene, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
+        int tau = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1).length;
+        if (tau > 500) t.error("a", t.get("a"), "the pair normalises to {} frames; a key segment may have at most 500", tau);
+        if (!scene.segments.empty()) {
+            const KeySegment& prev = scene.segments.back();
+            if (k.a[0] <= prev.a[1] || k.b[0] <= prev.b[1])
+                t.error(k.a[0] <= prev.a[1] ? "a" : "b", t.get(k.a[0] <= prev.a[1] ? "a" : "b"),
+                        "overlaps or comes before key segment {}: key segments must be in order and must not overlap", prev.index);
+        }
+        t.finish();
+        scene.segments.push_back(k);
+    }
+    top.finish();
+    return scene;
+}
+
+std::string resolved_toml(const Scene& scene) {
+    auto vec = [](const Vec3& v) { return toml::array{v.x(), v.y(), v.z()}; };
+    auto part_node = [&](const PartSpec& p) {
+        toml::table t;
+        switch (p.kind) {
+            case PartSpec::Kind::Whole: t.insert("rule", "whole"); break;
+            case PartSpec::Kind::WholeMinusInterest: t.insert("rule", "whole_minus_interest"); break;
+            case PartSpec::Kind::Meshes: t.insert("meshes", p.meshes); break;
+            case PartSpec::Kind::Parts:
+            case PartSpec::Kind::PartsExcept: {
+                toml::array labels;
+                for (const auto& l : p.labels) labels.push_back(l);
+                t.insert(p.kind == PartSpec::Kind::Parts ? "parts" : "parts_except", labels);
+                break;
+            }
+            case PartSpec::Kind::Box: t.insert("box", toml::table{{"min", vec(p.box.min)}, {"max", vec(p.box.max)}}); break;
+        }
+        return t;
+    };
+    toml::table root;
+    toml::table sampling{{"voxel", scene.sampling.voxel}, {"angle_step_deg", scene.sampling.angle_step_deg}, {"angles", scene.sampling.angles()}};
+    if (scene.sampling.x_range) sampling.insert("x_range", toml::array{(*scene.sampling.x_range)[0], (*scene.sampling.x_range)[1]});
+    if (scene.sampling.y_range) sampling.insert("y_range", toml::array{(*scene.sampling.y_range)[0], (*scene.sampling.y_range)[1]});
+    root.insert("sampling", sampling);
+    const Weights& w = scene.weights;
+    toml::array rotations;
+    for (double r : w.a_rotations_deg) rotations.push_back(r);
+    root.insert("weights", toml::table{{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", rotations}});
+    toml::table objects;
+    for (const SceneObject* o : {&scene.a, &scene.b}) {
+        toml::table t;
+        if (!o->meshes.empty()) t.insert("meshes", o->meshes);
+        if (!o->bvh.empty()) t.insert("bvh", o->bvh);
+        t.insert("unit", o->units.metres_per_unit);
+        t.insert("up", std::string(1, "xyz"[int(o->units.up)]));
+        t.insert("fps", o->fps);
+        t.insert("frames", toml::array{o->frame_first, o->frame_last});
+        if (!o->labels.empty()) t.insert("labels", o->labels);
+        if (!o->track.empty()) t.insert("track", o->track);
+        if (o->facing_deg) t.insert("facing_deg", *o->facing_deg);
+        t.insert("placement", toml::table{{"x", o->placement.x}, {"y", o->placement.y}, {"yaw_deg", o->placement.yaw_deg}});
+        objects.insert(o->name, t);
+    }
+    root.insert("objects", objects);
+    toml::array segments;
+    for (const KeySegment& k : scene.segments) {
+        NormalisedPair pair = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1);
+        segments.push_back(toml::table{
+            {"a", toml::array{k.a[0], k.a[1]}},
+            {"b", toml::array{k.b[0], k.b[1]}},
+            {"normalised_frames", pair.length},
+            {"type", k.type.name()},
+            {"tolerance", k.tolerance},
+            {"visibility", toml::table{{"enabled", k.visibility.enabled}, {"half_angle_deg", k.visibility.half_angle_deg}, {"range", k.visibility.range}}},
+            {"interest", toml::table{{"A", part_node(k.interest_a)}, {"B", part_node(k.interest_b)}}},
+            {"fidelity", toml::table{{"A", part_node(k.fidelity_a)}, {"B", part_node(k.fidelity_b)}}},
+        });
+    }
+    root.insert("segments", segments);
+    std::ostringstream out;
+    out << "# " << scene.file.string() << ", resolved: every default filled in\n" << root << "\n";
+    return out.str();
+}
+
+}  // namespace amhv

@@ -1,0 +1,92 @@
+#pragma once
+// Scene files (METHOD.md section 9): a human-written TOML file that describes the two objects,
+// their parts, the key segment pairs, the sampling and the weights. Everything is validated before
+// any work, and every error names the file, the line and the key.
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/geometry.hpp"
+#include "io/mesh_sequence.hpp"
+#include "sweep/interaction.hpp"
+
+namespace amhv {
+
+// A volume of interest or fidelity volume of one object in one key segment.
+struct PartSpec {
+    enum class Kind { Whole, WholeMinusInterest, Meshes, Parts, PartsExcept, Box } kind = Kind::Whole;
+    std::string meshes;               // Meshes: folder or pattern, frame numbers as the object's
+    std::vector<std::string> labels;  // Parts / PartsExcept
+    Box3 box;                         // Box: metres, z up, in the object's capture frame
+    std::string describe() const;
+};
+
+struct Placement {
+    double x = 0, y = 0, yaw_deg = 0;
+};
+
+struct SceneObject {
+    std::string name;                  // "A" or "B"
+    std::string meshes;                // folder or printf pattern (resolved path), or
+    std::string bvh;                   // a BVH file: a body built from the bones
+    UnitsAndAxes units;
+    double fps = 25;
+    std::string labels;                // optional per-vertex part labels (pattern of text files)
+    std::string track;                 // optional CSV: frame, eye xyz, gaze xyz (object units/axes)
+    std::optional<double> facing_deg;  // constant facing when there is no track
+    Placement placement;               // editor's initial placement of the capture frame in the scene
+    int frame_first = 0, frame_last = -1;  // frame numbers available (inclusive)
+};
+
+struct VisibilitySpec {
+    bool enabled = false;
+    double half_angle_deg = 30;
+    double range = 0;  // metres; 0 = unlimited
+};
+
+struct KeySegment {
+    int index = 0;  // 1-based, in file order
+    std::array<int, 2> a{}, b{};  // inclusive frame numbers in A and in B
+    InteractionType type;
+    int tolerance = 0;
+    VisibilitySpec visibility;
+    PartSpec interest_a, interest_b, fidelity_a, fidelity_b;
+    int line = 0;  // in the scene file
+};
+
+struct Sampling {
+    double voxel = 0.01;
+    double angle_step_deg = 2.0;
+    std::optional<std::array<double, 2>> x_range, y_range;
+    int angles() const;
+};
+
+struct Weights {
+    double lambda = 1.0;  // facing vs position
+    double delta = 0.5;   // acceleration vs velocity in path optimisation
+    double alpha = 20.0;  // steepness of the speed weights
+    double v_c = 0.02;    // metres per frame
+    double r_c = 0.05;    // radians per frame
+    double w_a = 1.0, w_b = 1.0;
+    double mu = 1e-6;     // tie-breaking prior toward the editor's placement
+    std::vector<double> a_rotations_deg{0.0};
+};
+
+struct Scene {
+    std::filesystem::path file;
+    Sampling sampling;
+    Weights weights;
+    SceneObject a, b;
+    std::vector<KeySegment> segments;
+};
+
+// Parses and validates `file`; relative paths are resolved against the file's folder. Checks the
+// referenced sequences exist and the frame ranges fit them. Throws amhv::Error "file:line: key: what".
+Scene load_scene(const std::filesystem::path& file);
+
+// The scene with every default filled in, as TOML text (what `amhv check` prints).
+std::string resolved_toml(const Scene& scene);
+
+}  // namespace amhv

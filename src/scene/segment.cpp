@@ -1,0 +1,318 @@
+#include "scene/segment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "io/bvh.hpp"
+#include "sweep/objects.hpp"
+
+namespace amhv {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::map<int, TrackSample> read_track_csv(const std::string& path, const UnitsAndAxes& units) {
+    std::ifstream in(path);
+    if (!in) fail(path, "cannot open the track file");
+    std::map<int, TrackSample> track;
+    std::string line;
+    int line_number = 0;
+    while (std::getline(in, line)) {
+        ++line_number;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty() || line[0] == '#') continue;
+        std::replace(line.begin(), line.end(), ',', ' ');
+        std::istringstream fields(line);
+        double v[7];
+        int count = 0;
+        std::string token;
+        bool numeric = true;
+        while (fields >> token) {
+            if (count >= 7) {
+                count = 8;
+                break;
+            }
+            try {
+                std::size_t used = 0;
+                v[count] = std::stod(token, &used);
+                numeric = numeric && used == token.size();
+            } catch (const std::exception&) {
+                numeric = false;
+            }
+            ++count;
+        }
+        if (line_number == 1 && !numeric) continue;  // a header row
+        if (count != 7 || !numeric)
+            fail(fmt::format("{}:{}", path, line_number), "expected 7 numbers: frame, eye_x, eye_y, eye_z, gaze_x, gaze_y, gaze_z");
+        for (double x : v)
+            if (!std::isfinite(x)) fail(fmt::format("{}:{}", path, line_number), "non-finite value");
+        Vec3 gaze = to_z_up(Vec3(v[4], v[5], v[6]), units.up);
+        if (gaze.norm() < 1e-12) fail(fmt::format("{}:{}", path, line_number), "the gaze direction is zero");
+        track[int(v[0])] = {to_z_up(Vec3(v[1], v[2], v[3]) * units.metres_per_unit, units.up), gaze.normalized()};
+    }
+    if (track.empty()) fail(path, "the track has no rows");
+    return track;
+}
+
+// One text file per frame: a part label per vertex (names or numbers), whitespace-separated.
+std::vector<std::string> read_labels(const fs::path& path, std::size_t vertex_count) {
+    std::ifstream in(path);
+    if (!in) fail(path.string(), "cannot open the labels file");
+    std::vector<std::string> labels;
+    std::string token;
+    while (in >> token) labels.push_back(token);
+    if (labels.size() != vertex_count)
+        fail(path.string(), "has {} labels but the frame's mesh has {} vertices", labels.size(), vertex_count);
+    return labels;
+}
+
+std::vector<BodyPart> split_by_labels(const TriangleMesh& mesh, const std::vector<std::string>& labels) {
+    // A triangle belongs to the part of its first vertex.
+    std::vector<BodyPart> parts;
+    std::map<std::string, std::size_t> index;
+    std::vector<std::vector<std::int64_t>> remap;
+    for (const auto& t : mesh.triangles) {
+        const std::string& label = labels[t[0]];
+        auto [it, added] = index.emplace(label, parts.size());
+        if (added) {
+            parts.push_back({label, {}});
+            remap.emplace_back(mesh.vertices.size(), -1);
+        }
+        BodyPart& part = parts[it->second];
+        auto& map = remap[it->second];
+        std::array<std::uint32_t, 3> out{};
+        for (int k = 0; k < 3; ++k) {
+            if (map[t[std::size_t(k)]] < 0) {
+                map[t[std::size_t(k)]] = std::int64_t(part.mesh.vertices.size());
+                part.mesh.vertices.push_back(mesh.vertices[t[std::size_t(k)]]);
+            }
+            out[std::size_t(k)] = std::uint32_t(map[t[std::size_t(k)]]);
+        }
+        part.mesh.triangles.push_back(out);
+    }
+    return parts;
+}
+
+double reach_from(const Amhv& volume, const Vec3& root) {
+    Box3 b = summarise(volume).bounds;
+    if (b.empty()) return 0;
+    double reach = 0;
+    for (int c = 0; c < 4; ++c) {
+        Vec3 p((c & 1) ? b.max.x() : b.min.x(), (c & 2) ? b.max.y() : b.min.y(), 0);
+        reach = std::max(reach, std::hypot(p.x() - root.x(), p.y() - root.y()));
+    }
+    return reach;
+}
+
+}  // namespace
+
+ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
+    if (!spec_.bvh.empty()) {
+        motion_ = read_bvh(spec_.bvh);
+        body_options_.units = spec_.units;
+        auto samples = skeleton_track(*motion_, body_options_);
+        for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];
+        label_names_ = body_part_names();
+    }
+    if (!spec_.track.empty()) track_ = read_track_csv(spec_.track, spec_.units);
+}
+
+const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
+    if (auto it = frames_.find(number); it != frames_.end()) return it->second;
+    std::vector<BodyPart> parts;
+    if (motion_) {
+        parts = skeleton_body_parts(*motion_, number, body_options_);
+    } else {
+        auto files = list_frames(spec_.meshes, FrameRange{number, number});
+        TriangleMesh mesh = read_mesh(files.front().path, spec_.units);
+        if (!spec_.labels.empty()) {
+            auto label_files = list_frames(spec_.labels, FrameRange{number, number});
+            parts = split_by_labels(mesh, read_labels(label_files.front().path, mesh.vertices.size()));
+            for (const auto& p : parts)
+                if (std::find(label_names_.begin(), label_names_.end(), p.name) == label_names_.end()) label_names_.push_back(p.name);
+        } else {
+            parts.push_back({"", std::move(mesh)});
+        }
+    }
+    return frames_.emplace(number, std::move(parts)).first->second;
+}
+
+std::optional<TrackSample> ObjectSource::track(int number) const {
+    if (auto it = track_.find(number); it != track_.end()) return it->second;
+    return std::nullopt;
+}
+
+const MeshFrame& ObjectSource::part_frame(const std::string& meshes, int number) {
+    auto key = std::make_pair(meshes, number);
+    if (auto it = part_frames_.find(key); it != part_frames_.end()) return it->second;
+    auto files = list_frames(meshes, FrameRange{number, number});
+    MeshFrame frame{read_mesh(files.front().path, spec_.units), files.front().path.string()};
+    return part_frames_.emplace(key, std::move(frame)).first->second;
+}
+
+Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int>& frames) {
+    Vec3 sum = Vec3::Zero();
+    bool tracked = true;
+    for (int f : frames) {
+        auto sample = object.track(f);
+        if (!sample) {
+            tracked = false;
+            break;
+        }
+        sum += sample->gaze;
+    }
+    Eigen::Vector2d facing(sum.x(), sum.y());
+    if (tracked && !frames.empty() && facing.norm() > 1e-9) return facing.normalized();
+    double degrees = object.spec().facing_deg.value_or(0.0);
+    return {std::cos(degrees * std::numbers::pi / 180), std::sin(degrees * std::numbers::pi / 180)};
+}
+
+SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
+    SegmentBuild build;
+    build.frames = normalise_pair(segment.a[1] - segment.a[0] + 1, segment.b[1] - segment.b[0] + 1);
+    const double h = scene.sampling.voxel;
+    const std::string where = fmt::format("{}: segments[{}]", scene.file.string(), segment.index);
+
+    auto make = [&](ObjectSource& source, int first, const std::vector<int>& relative, const PartSpec& interest, const PartSpec& fidelity,
+                    std::vector<int>& numbers) {
+        const std::string& name = source.spec().name;
+        // Owned copies of the frame meshes the voxeliser reads.
+        std::vector<std::vector<MeshFrame>> storage(relative.size());
+        std::vector<ObjectFrame> frames(relative.size());
+        auto select = [&](const std::vector<BodyPart>& parts, const PartSpec& spec, int number) {
+            std::vector<MeshFrame> out;
+            for (const BodyPart& p : parts) {
+                bool listed = std::find(spec.labels.begin(), spec.labels.end(), p.name) != spec.labels.end();
+                if (listed == (spec.kind == PartSpec::Kind::Parts))
+                    out.push_back({p.mesh, fmt::format("object {} frame {} part {}", name, number, p.name)});
+            }
+            return out;
+        };
+        for (const PartSpec* spec : {&interest, &fidelity})
+            for (const std::string& label : spec->labels)
+                if (!source.label_names().empty() &&
+                    std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end()) {
+                    // Labels from files are only known once frames are read; read the first now.
+                    source.frame_parts(first + relative.front());
+                    if (std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end())
+                        fail(where, "object {} has no part '{}'", name, label);
+                }
+        for (std::size_t m = 0; m < relative.size(); ++m) {
+            const int number = first + relative[m];
+            numbers.push_back(number);
+            const auto& parts = source.frame_parts(number);
+            auto& own = storage[m];
+            own.reserve(parts.size() * 3 + 2);
+            for (const BodyPart& p : parts) own.push_back({p.mesh, fmt::format("object {} frame {}{}", name, number, p.name.empty() ? "" : " part " + p.name)});
+            const std::size_t whole_count = own.size();
+            for (std::size_t k = 0; k < whole_count; ++k) frames[m].whole.push_back(&own[k]);
+            auto attach = [&](const PartSpec& spec, std::vector<const MeshFrame*>& list) {
+                if (spec.kind == PartSpec::Kind::Meshes) {
+                    own.push_back(source.part_frame(spec.meshes, number));
+                    list.push_back(&own.back());
+                } else if (spec.kind == PartSpec::Kind::Parts || spec.kind == PartSpec::Kind::PartsExcept) {
+                    for (MeshFrame& f : select(parts, spec, number)) {
+                        own.push_back(std::move(f));
+                        list.push_back(&own.back());
+                    }
+                }
+            };
+            attach(interest, frames[m].interest);
+            attach(fidelity, frames[m].fidelity);
+        }
+        auto rule = [](const PartSpec& spec) {
+            switch (spec.kind) {
+                case PartSpec::Kind::Whole: return PartRule::Whole;
+                case PartSpec::Kind::WholeMinusInterest: return PartRule::WholeMinusInterest;
+                case PartSpec::Kind::Box: return PartRule::Box;
+                default: return PartRule::Meshes;
+            }
+        };
+        ObjectParts parts;
+        parts.interest = rule(interest);
+        parts.fidelity = rule(fidelity);
+        parts.interest_is_separate = interest.kind == PartSpec::Kind::Meshes;
+        parts.fidelity_is_separate = fidelity.kind == PartSpec::Kind::Meshes;
+        if (interest.kind == PartSpec::Kind::Box) parts.interest_box = interest.box;
+        if (fidelity.kind == PartSpec::Kind::Box) parts.fidelity_box = fidelity.box;
+        SweepObject object = build_sweep_object(name, frames, parts, h, voxeliser);
+        object.facing = segment_facing(source, numbers);
+        return object;
+    };
+
+    std::vector<int> numbers_a, numbers_b;
+    SweepProblem& p = build.problem;
+    p.a = make(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, numbers_a);
+    p.b = make(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, numbers_b);
+    p.type = segment.type;
+    p.tolerance = segment.tolerance;
+    p.voxel = h;
+    p.angle_step_deg = scene.sampling.angle_step_deg;
+    for (const SweepObject* o : {&p.a, &p.b})
+        if (summarise(o->interest).occupied_voxels == 0) fail(where, "object {}'s volume of interest is empty", o->name);
+    p.range = automatic_range(p.a, p.b, h, scene.sampling.angles());
+    narrow_range(p.range, h, scene.sampling.x_range ? &*scene.sampling.x_range : nullptr,
+                 scene.sampling.y_range ? &*scene.sampling.y_range : nullptr);
+
+    p.visibility = segment.visibility.enabled;
+    if (p.visibility) {
+        // Each cone is rasterised over the region where the other's body can be at any pose.
+        const double s_max = std::max({std::hypot(p.range.i_first * h, p.range.j_first * h), std::hypot(p.range.i_last * h, p.range.j_first * h),
+                                       std::hypot(p.range.i_first * h, p.range.j_last * h), std::hypot(p.range.i_last * h, p.range.j_last * h)});
+        auto cone_of = [&](const SweepObject& self, ObjectSource& source, const std::vector<int>& numbers, const Box3& region) {
+            ViewCone cone;
+            cone.half_angle_deg = segment.visibility.half_angle_deg;
+            cone.range = segment.visibility.range;
+            Vec3 eye = Vec3::Zero(), gaze = Vec3::Zero();
+            bool tracked = true;
+            for (int n : numbers) {
+                auto sample = source.track(n);
+                if (!sample) {
+                    tracked = false;
+                    break;
+                }
+                eye += sample->eye;
+                gaze += sample->gaze;
+            }
+            if (tracked && gaze.norm() > 1e-9) {
+                cone.eye = eye / double(numbers.size());
+                cone.gaze = gaze.normalized();
+            } else {
+                // No track: eyes 10 cm below the top of the body above the root, looking along the facing.
+                Box3 bounds = summarise(self.whole).bounds;
+                cone.eye = Vec3(self.root.x(), self.root.y(), bounds.max.z() - 0.1);
+                cone.gaze = Vec3(self.facing.x(), self.facing.y(), 0);
+            }
+            Box3 r = region;
+            if (cone.range > 0) {
+                r.min = r.min.cwiseMax(cone.eye - Vec3::Constant(cone.range));
+                r.max = r.max.cwiseMin(cone.eye + Vec3::Constant(cone.range));
+                if (r.empty()) r.min = r.max = cone.eye;
+                r.max += Vec3::Constant(h);
+            }
+            return view_cone_volume(cone, r, h);
+        };
+        const VoxelGrid& ga = p.a.whole.grid();
+        const VoxelGrid& gb = p.b.whole.grid();
+        const double reach_a = reach_from(p.a.whole, p.a.root), reach_b = reach_from(p.b.whole, p.b.root);
+        Box3 region_a;  // where B's body can be, in A's frame
+        region_a.min = Vec3(p.a.root.x() + p.range.i_first * h - reach_b, p.a.root.y() + p.range.j_first * h - reach_b, gb.origin.z());
+        region_a.max = Vec3(p.a.root.x() + p.range.i_last * h + reach_b, p.a.root.y() + p.range.j_last * h + reach_b,
+                            gb.origin.z() + gb.dims[2] * h);
+        Box3 region_b;  // where A's body can be, in B's frame
+        const double r = reach_a + s_max + h;
+        region_b.min = Vec3(p.b.root.x() - r, p.b.root.y() - r, ga.origin.z());
+        region_b.max = Vec3(p.b.root.x() + r, p.b.root.y() + r, ga.origin.z() + ga.dims[2] * h);
+        p.a.view_cone = cone_of(p.a, a, numbers_a, region_a);
+        p.b.view_cone = cone_of(p.b, b, numbers_b, region_b);
+    }
+    validate(p);
+    return build;
+}
+
+}  // namespace amhv

@@ -1,0 +1,51 @@
+#pragma once
+// From a scene's key segment pair to the sweep problem: read both objects' frames, normalise the
+// pair's lengths, voxelise the whole bodies and parts, find roots and facings, build view cones.
+#include <map>
+#include <memory>
+#include <optional>
+
+#include "body/skeleton_body.hpp"
+#include "core/normalise.hpp"
+#include "core/voxelise.hpp"
+#include "scene/scene.hpp"
+#include "sweep/problem.hpp"
+
+namespace amhv {
+
+// One object's frames, read on demand: each frame split into labelled parts (one part named ""
+// when the object has no labels) and its track sample when it has a track.
+class ObjectSource {
+public:
+    explicit ObjectSource(const SceneObject& spec);
+    const SceneObject& spec() const { return spec_; }
+    const std::vector<BodyPart>& frame_parts(int number);
+    std::optional<TrackSample> track(int number) const;
+    // The frame `number` of a part given as its own mesh sequence.
+    const MeshFrame& part_frame(const std::string& meshes, int number);
+    // Every part name the object's labels use (empty without labels).
+    const std::vector<std::string>& label_names() const { return label_names_; }
+
+private:
+    SceneObject spec_;
+    std::optional<BvhMotion> motion_;
+    SkeletonBodyOptions body_options_;
+    std::map<int, TrackSample> track_;
+    std::map<int, std::vector<BodyPart>> frames_;
+    std::map<std::pair<std::string, int>, MeshFrame> part_frames_;
+    std::vector<std::string> label_names_;
+};
+
+struct SegmentBuild {
+    SweepProblem problem;
+    NormalisedPair frames;  // segment-relative source frame of each normalised frame, A and B
+};
+
+// Builds the sweep problem of key segment `segment` with `voxeliser` (the Vulkan path or the
+// reference: both give identical volumes).
+SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser);
+
+// Mean gaze over `frames` projected onto the floor, or the constant facing, or +x.
+Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int>& frames);
+
+}  // namespace amhv
