@@ -212,7 +212,9 @@ TEST(Sweep, WorkSplittingMatchesReference) {
             EXPECT_GT(both.gpu.rejected[2], 0u);
             EXPECT_GT(both.gpu.solutions, 0u);
         }
-        if (std::string(type) == "0&0a") EXPECT_GT(both.gpu.rejected[1], 0u);
+        if (std::string(type) == "0&0a") {
+            EXPECT_GT(both.gpu.rejected[1], 0u);
+        }
     }
 }
 

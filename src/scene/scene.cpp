@@ -195,16 +195,16 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     return o;
 }
 
-PartSpec read_part(TableReader& parent, const std::string& key, const SceneObject& object, PartSpec fallback) {
+PartSpec read_part(TableReader& parent, const std::string& key, const SceneObject& object, PartSpec fallback, bool fidelity) {
     const toml::node* node = parent.get(key);
     if (!node) return fallback;
     PartSpec part;
     if (node->is_string()) {
         std::string word = node->value<std::string>().value();
         if (word == "whole") part.kind = PartSpec::Kind::Whole;
-        else if (word == "whole_minus_interest" && key.find("fidelity") != std::string::npos) part.kind = PartSpec::Kind::WholeMinusInterest;
+        else if (word == "whole_minus_interest" && fidelity) part.kind = PartSpec::Kind::WholeMinusInterest;
         else parent.error(key, node, "'{}' is not a part; use \"whole\"{}, or a table with meshes, parts, parts_except or box", word,
-                          key.find("fidelity") != std::string::npos ? ", \"whole_minus_interest\"" : "");
+                          fidelity ? ", \"whole_minus_interest\"" : "");
         return part;
     }
     if (!node->is_table()) parent.error(key, node, "must be a string or a table");
@@ -236,8 +236,8 @@ PartSpec read_part(TableReader& parent, const std::string& key, const SceneObjec
 
 void read_parts(TableReader& segment, const std::string& key, const Scene& scene, PartSpec& a, PartSpec& b, PartSpec fallback) {
     TableReader t = segment.table(key);
-    a = read_part(t, "A", scene.a, fallback);
-    b = read_part(t, "B", scene.b, fallback);
+    a = read_part(t, "A", scene.a, fallback, key == "fidelity");
+    b = read_part(t, "B", scene.b, fallback, key == "fidelity");
     t.finish();
 }
 

@@ -1,0 +1,220 @@
+// Scene files and the sweep command: validation with file, line and key; the resolved scene; the
+// sweep's outputs (identical for both backends, byte-identical reruns, readable feasibility maps).
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfInputFile.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "body/shapes.hpp"
+#include "core/error.hpp"
+#include "scene/scene.hpp"
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+namespace fs = std::filesystem;
+
+void write_obj(const fs::path& path, const TriangleMesh& mesh) {
+    std::ofstream out(path);
+    out.precision(9);
+    for (const auto& v : mesh.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
+    for (const auto& t : mesh.triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+}
+
+std::string read_text(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// Two small performers on disk: A (a body and a separate fist mesh that moves forward, a view
+// track) and B (a body with a hand, labelled per vertex), 10 frames each.
+struct SceneFixture {
+    test::TempDir dir;
+    fs::path scene;
+
+    explicit SceneFixture(const std::string& type = "0&0b", bool b_hand_moves = true) {
+        const fs::path root = dir.path();
+        for (const char* sub : {"a", "fist", "b", "b_labels"}) fs::create_directories(root / sub);
+        std::ofstream track(root / "a_track.csv");
+        track << "frame,eye_x,eye_y,eye_z,gaze_x,gaze_y,gaze_z\n";
+        for (int f = 0; f < 10; ++f) {
+            const double s = f / 9.0;
+            write_obj(root / "a" / fmt::format("{:04d}.obj", f), shapes::capsule({0, 0, 0.4}, {0, 0, 1.4}, 0.2, 3, 10));
+            write_obj(root / "fist" / fmt::format("{:04d}.obj", f), shapes::sphere({0.25 + 0.3 * s, 0, 1.2}, 0.06, 6, 10));
+            track << fmt::format("{},0.05,0,1.6,1,0,-0.1\n", f);
+            TriangleMesh body = shapes::capsule({0, 0, 0.4}, {0, 0, 1.4}, 0.2, 3, 10);
+            const std::size_t body_vertices = body.vertices.size();
+            const double hx = b_hand_moves ? 0.55 - 0.3 * s : 0.4;
+            body.append(shapes::sphere({hx, 0.02, 1.2}, 0.06, 6, 10));
+            write_obj(root / "b" / fmt::format("{:04d}.obj", f), body);
+            std::ofstream labels(root / "b_labels" / fmt::format("{:04d}.txt", f));
+            for (std::size_t v = 0; v < body.vertices.size(); ++v) labels << (v < body_vertices ? "body\n" : "hand\n");
+        }
+        scene = root / "scene.toml";
+        std::ofstream(scene) << fmt::format(R"([sampling]
+voxel = 0.03
+angle_step_deg = 30
+
+[objects.A]
+meshes = "a/%04d.obj"
+track = "a_track.csv"
+
+[objects.B]
+meshes = "b/%04d.obj"
+labels = "b_labels/%04d.txt"
+facing_deg = 180
+
+[[segments]]
+a = [0, 9]
+b = [0, 9]
+type = "{}"
+interest = {{ A = {{ meshes = "fist/%04d.obj" }}, B = {{ parts = ["hand"] }} }}
+fidelity = {{ A = "whole_minus_interest", B = {{ parts_except = ["hand"] }} }}
+visibility = {{ enabled = true, half_angle_deg = 40 }}
+)",
+                                            type);
+    }
+};
+
+TEST(Scene, CheckPrintsTheResolvedScene) {
+    SceneFixture fixture;
+    auto result = test::run_amhv("check '" + fixture.scene.string() + "'");
+    EXPECT_EQ(result.exit_code, 0) << result.output;
+    for (const char* expected : {"normalised_frames = 10", "type = '0&0b'", "half_angle_deg = 40", "parts_except = [ 'hand' ]", "angles = 12"})
+        EXPECT_NE(result.output.find(expected), std::string::npos) << expected << "\n" << result.output;
+}
+
+TEST(Scene, ShippedExampleIsValid) {
+    Scene scene = load_scene(test::source_dir() / "data/scenes/handshake.toml");
+    ASSERT_EQ(scene.segments.size(), 1u);
+    EXPECT_EQ(scene.segments[0].type.name(), "0&0a");
+    EXPECT_EQ(scene.a.frame_last, 303);
+}
+
+TEST(Scene, SweepBackendsAgreeAndRerunsAreByteIdentical) {
+    SceneFixture fixture;
+    const fs::path out = fixture.dir.path();
+    const std::string scene = fmt::format("'{}'", fixture.scene.string());
+    auto vulkan = test::run_amhv("sweep " + scene + " --no-timings --out '" + (out / "vk").string() + "'");
+    ASSERT_EQ(vulkan.exit_code, 0) << vulkan.output;
+    auto cpu = test::run_amhv("sweep " + scene + " --no-timings --backend cpu --out '" + (out / "cpu").string() + "'");
+    ASSERT_EQ(cpu.exit_code, 0) << cpu.output;
+    auto again = test::run_amhv("sweep " + scene + " --no-timings --out '" + (out / "vk2").string() + "'");
+    ASSERT_EQ(again.exit_code, 0) << again.output;
+
+    const std::string csv = read_text(out / "vk/segment_1/solutions.csv");
+    EXPECT_EQ(csv, read_text(out / "cpu/segment_1/solutions.csv"));
+    auto json = nlohmann::json::parse(read_text(out / "vk/result.json"));
+    auto json_cpu = nlohmann::json::parse(read_text(out / "cpu/result.json"));
+    EXPECT_EQ(json["segments"], json_cpu["segments"]);
+    const auto& segment = json["segments"][0];
+    const std::uint64_t solutions = segment["solutions"];
+    EXPECT_GT(solutions, 0u);
+    EXPECT_EQ(std::uint64_t(std::count(csv.begin(), csv.end(), '\n')), solutions + 1);
+    std::uint64_t accounted = solutions;
+    for (const char* constraint : {"contact", "dictionary", "fidelity", "visibility"}) accounted += segment["rejected"][constraint].get<std::uint64_t>();
+    EXPECT_EQ(accounted, segment["poses_tested"].get<std::uint64_t>());
+
+    // Byte-identical rerun, feasibility maps included.
+    for (const auto& entry : fs::recursive_directory_iterator(out / "vk")) {
+        if (!entry.is_regular_file()) continue;
+        fs::path twin = out / "vk2" / fs::relative(entry.path(), out / "vk");
+        EXPECT_EQ(read_text(entry.path()), read_text(twin)) << entry.path();
+    }
+
+    // The maps: one EXR per angle whose `passed` = 4 pixels are exactly the solutions.
+    std::uint64_t solution_pixels = 0;
+    for (int k = 0; k < 12; ++k) {
+        Imf::InputFile file((out / fmt::format("vk/segment_1/feasibility/angle_{:03d}.exr", k)).c_str());
+        ASSERT_NE(file.header().channels().findChannel("passed"), nullptr);
+        auto window = file.header().dataWindow();
+        const int width = window.max.x - window.min.x + 1, height = window.max.y - window.min.y + 1;
+        std::vector<float> passed(std::size_t(width) * height);
+        Imf::FrameBuffer buffer;
+        buffer.insert("passed", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(passed.data()), sizeof(float), sizeof(float) * width));
+        file.setFrameBuffer(buffer);
+        file.readPixels(window.min.y, window.max.y);
+        solution_pixels += std::uint64_t(std::count(passed.begin(), passed.end(), 4.0f));
+    }
+    EXPECT_EQ(solution_pixels, solutions);
+    EXPECT_TRUE(fs::exists(out / "vk/segment_1/feasibility/montage.png"));
+}
+
+// 0&0 (c) needs B to leave every contact voxel before A arrives; B's hand never moves, so no pose
+// qualifies: an answer (exit 0), unless --require-solutions.
+TEST(Scene, EmptySolutionGroupIsAnAnswer) {
+    SceneFixture fixture("0&0c", false);
+    const std::string scene = fmt::format("'{}'", fixture.scene.string());
+    auto result = test::run_amhv("sweep " + scene + " --out '" + (fixture.dir.path() / "out").string() + "'");
+    EXPECT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.output.find("no solution among"), std::string::npos) << result.output;
+    EXPECT_NE(result.output.find("dictionary"), std::string::npos);
+    auto required = test::run_amhv("sweep " + scene + " --require-solutions --out '" + (fixture.dir.path() / "out2").string() + "'");
+    EXPECT_NE(required.exit_code, 0);
+    EXPECT_NE(required.output.find("--require-solutions"), std::string::npos) << required.output;
+}
+
+struct BadScene {
+    const char* name;
+    const char* from;  // text of the fixture's scene to replace
+    const char* to;
+    const char* expected;  // in the one-line error
+};
+
+class SceneBadInput : public ::testing::TestWithParam<BadScene> {};
+
+TEST_P(SceneBadInput, OneLineErrorWithLineAndKey) {
+    SceneFixture fixture;
+    std::string text = read_text(fixture.scene);
+    const BadScene& bad = GetParam();
+    auto at = text.find(bad.from);
+    ASSERT_NE(at, std::string::npos) << bad.from;
+    text = text.substr(0, at) + std::string(bad.to) + text.substr(at + std::string(bad.from).size());
+    std::ofstream(fixture.scene) << text;
+    const fs::path out = fixture.dir.path() / "out";
+    for (const char* command : {"check", "sweep"}) {
+        auto result = test::run_amhv(std::string(command) + " '" + fixture.scene.string() + "'" +
+                                     (std::string(command) == "sweep" ? " --out '" + out.string() + "'" : ""));
+        EXPECT_NE(result.exit_code, 0) << result.output;
+        EXPECT_EQ(std::count(result.output.begin(), result.output.end(), '\n'), 1) << result.output;
+        EXPECT_EQ(result.output.rfind("amhv: error: ", 0), 0u) << result.output;
+        EXPECT_NE(result.output.find("scene.toml"), std::string::npos) << result.output;
+        EXPECT_NE(result.output.find(bad.expected), std::string::npos) << result.output;
+        EXPECT_FALSE(fs::exists(out));
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scene, SceneBadInput,
+    ::testing::Values(
+        BadScene{"UnknownKey", "voxel = 0.03", "voxel = 0.03\nvoxle = 2", "scene.toml:3: sampling.voxle: unknown key"},
+        BadScene{"WrongType", "voxel = 0.03", "voxel = \"fine\"", "scene.toml:2: sampling.voxel: must be a number"},
+        BadScene{"OutOfRange", "voxel = 0.03", "voxel = -1", "sampling.voxel: -1 is out of range"},
+        BadScene{"AngleStep", "angle_step_deg = 30", "angle_step_deg = 7", "angle_step_deg: 7 does not divide 360"},
+        BadScene{"UnknownType", "type = \"0&0b\"", "type = \"hug\"", "segments[1].type: unknown interaction type 'hug'"},
+        BadScene{"BeyondSequence", "a = [0, 9]", "a = [0, 12]", "segments[1].a: frames 0..12 are beyond object A's frames 0..9"},
+        BadScene{"Reversed", "b = [0, 9]", "b = [9, 0]", "segments[1].b: first frame 9 is after last frame 0"},
+        BadScene{"Overlapping", "visibility = { enabled = true, half_angle_deg = 40 }",
+                 "visibility = { enabled = true, half_angle_deg = 40 }\n[[segments]]\na = [5, 9]\nb = [5, 9]\ntype = \"+&-\"",
+                 "segments[2].a: overlaps or comes before key segment 1"},
+        BadScene{"BothSources", "meshes = \"a/%04d.obj\"", "meshes = \"a/%04d.obj\"\nbvh = \"x.bvh\"",
+                 "objects.A.meshes: give exactly one of 'meshes'"},
+        BadScene{"PartsWithoutLabels", "A = { meshes = \"fist/%04d.obj\" }", "A = { parts = [\"hand\"] }",
+                 "object A has no part labels"},
+        BadScene{"MissingType", "type = \"0&0b\"", "", "segments[1].type: is missing"},
+        BadScene{"BadHalfAngle", "half_angle_deg = 40", "half_angle_deg = 120", "visibility.half_angle_deg: 120 is out of range"},
+        BadScene{"Syntax", "[sampling]", "[sampling", "scene.toml:1"}),
+    [](const auto& test_info) { return std::string(test_info.param.name); });
+
+}  // namespace
+}  // namespace amhv
