@@ -94,7 +94,14 @@ void run_sweep(const SweepArguments& args) {
     json["scene"] = scene.file.string();
     json["backend"] = args.backend;
     json["device"] = device;
-    json["parameters"] = {{"voxel_m", scene.sampling.voxel}, {"angle_step_deg", scene.sampling.angle_step_deg}, {"angles", scene.sampling.angles()}};
+    const Weights& w = scene.weights;
+    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
+                          {"angle_step_deg", scene.sampling.angle_step_deg},
+                          {"angles", scene.sampling.angles()},
+                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
+                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
+                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
     json["segments"] = nlohmann::json::array();
     std::vector<int> empty_segments;
     for (const KeySegment& segment : scene.segments) {
@@ -135,7 +142,9 @@ void run_sweep(const SweepArguments& args) {
                       {"angles", problem.range.angles}};
         s["root_m"] = {{"A", vec3(problem.a.root)}, {"B", vec3(problem.b.root)}};
         s["facing"] = {{"A", {problem.a.facing.x(), problem.a.facing.y()}}, {"B", {problem.b.facing.x(), problem.b.facing.y()}}};
-        s["visibility"] = problem.visibility;
+        s["tolerance"] = segment.tolerance;
+        s["visibility"] = {{"enabled", segment.visibility.enabled}, {"half_angle_deg", segment.visibility.half_angle_deg},
+                           {"range_m", segment.visibility.range}};
         s["interest"] = {{"A", segment.interest_a.describe()}, {"B", segment.interest_b.describe()}};
         s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
         s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},

@@ -1,0 +1,264 @@
+#include "optimise/chain_dp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double wrap_radians(double a) {
+    a = std::fmod(a, 2 * std::numbers::pi);
+    if (a > std::numbers::pi) a -= 2 * std::numbers::pi;
+    if (a <= -std::numbers::pi) a += 2 * std::numbers::pi;
+    return a;
+}
+
+Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) { return Eigen::Rotation2Dd(angle) * v; }
+
+double unary(const ChainSegment& s, const ChainWeights& w, int j, int d) {
+    const ChainSolution& sol = s.solutions[std::size_t(j)];
+    const double delta = w.a_rotations_rad[std::size_t(d)];
+    const Eigen::Vector2d r(sol.i * w.voxel, sol.j * w.voxel);
+    const double facing = (2 - 2 * std::cos(delta)) + (2 - 2 * std::cos(w.yaw_a + delta + sol.theta_rad - w.yaw_b));
+    const double prior = (r - s.prior_offset).squaredNorm() + std::pow(wrap_radians(sol.theta_rad - s.prior_theta_rad), 2);
+    return w.lambda * facing + w.mu * prior;
+}
+
+double pair_factor(const ChainWeights& w) { return std::isinf(w.w_a) ? w.w_b : w.w_a * w.w_b / (w.w_a + w.w_b); }
+
+// P_i(s) without the rotated offset: R(psi_B) dC^B_i - R(psi_A) dC^A_i.
+Eigen::Vector2d displacement_term(const ChainSegment& a, const ChainSegment& b, const ChainWeights& w) {
+    return rotate(w.yaw_b, b.root_b - a.root_b) - rotate(w.yaw_a, b.root_a - a.root_a);
+}
+
+Eigen::Vector2d offset(const ChainSolution& s, const ChainWeights& w, int d) {
+    return rotate(w.yaw_a + w.a_rotations_rad[std::size_t(d)], Eigen::Vector2d(s.i * w.voxel, s.j * w.voxel));
+}
+
+void check(const std::vector<ChainSegment>& segments, const ChainWeights& w) {
+    if (segments.empty()) throw Error("global optimisation: no key segment");
+    for (std::size_t i = 0; i < segments.size(); ++i)
+        if (segments[i].solutions.empty()) throw Error(fmt::format("global optimisation: key segment {} has no solution", i + 1));
+    if (w.a_rotations_rad.empty()) throw Error("global optimisation: the set of A rotations is empty");
+}
+
+}  // namespace
+
+void lower_envelope(const std::vector<double>& v, const std::vector<double>& g, double c, const std::vector<double>& q,
+                    std::vector<double>& f, std::vector<int>& argmin) {
+    // Felzenszwalb-Huttenlocher: the lower envelope of parabolas g_k + c (x - v_k)^2, built left
+    // to right, then read at the ascending queries.
+    std::vector<int> hull;
+    std::vector<double> from;  // hull[m] is lowest on [from[m], from[m+1])
+    for (int k = 0; k < int(v.size()); ++k) {
+        if (std::isinf(g[std::size_t(k)])) continue;
+        double start = -kInf;
+        while (!hull.empty()) {
+            const int h = hull.back();
+            const double vk = v[std::size_t(k)], vh = v[std::size_t(h)];
+            if (vk == vh) {  // same centre: keep the lower (the earlier on ties)
+                if (g[std::size_t(k)] < g[std::size_t(h)]) {
+                    hull.pop_back();
+                    from.pop_back();
+                    continue;
+                }
+                start = kInf;
+                break;
+            }
+            start = ((g[std::size_t(k)] + c * vk * vk) - (g[std::size_t(h)] + c * vh * vh)) / (2 * c * (vk - vh));
+            if (start <= from.back()) {
+                hull.pop_back();
+                from.pop_back();
+                start = -kInf;
+                continue;
+            }
+            break;
+        }
+        if (start == kInf) continue;
+        hull.push_back(k);
+        from.push_back(hull.size() == 1 ? -kInf : start);
+    }
+    f.assign(q.size(), kInf);
+    argmin.assign(q.size(), -1);
+    if (hull.empty()) return;
+    std::size_t m = 0;
+    for (std::size_t t = 0; t < q.size(); ++t) {
+        while (m + 1 < hull.size() && from[m + 1] <= q[t]) ++m;
+        const int k = hull[m];
+        const double d = q[t] - v[std::size_t(k)];
+        f[t] = g[std::size_t(k)] + c * d * d;
+        argmin[t] = k;
+    }
+}
+
+void evaluate_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w, ChainChoice& choice) {
+    choice.unary = choice.pairwise = 0;
+    const double c = pair_factor(w);
+    for (std::size_t i = 0; i < segments.size(); ++i) {
+        choice.unary += unary(segments[i], w, choice.solution[i], choice.rotation[i]);
+        if (i + 1 < segments.size()) {
+            Eigen::Vector2d p = displacement_term(segments[i], segments[i + 1], w) +
+                                offset(segments[i].solutions[std::size_t(choice.solution[i])], w, choice.rotation[i]);
+            Eigen::Vector2d q = offset(segments[i + 1].solutions[std::size_t(choice.solution[i + 1])], w, choice.rotation[i + 1]);
+            choice.pairwise += c * (p - q).squaredNorm();
+        }
+    }
+    choice.cost = choice.unary + choice.pairwise;
+}
+
+ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w) {
+    check(segments, w);
+    const int rotations = int(w.a_rotations_rad.size());
+    const double c = pair_factor(w);
+    const double h = w.voxel;
+    // cost[i][d][j] = best cost of segments 0..i ending in state (j, d); from[i][d][j] = (j', d') before it.
+    std::vector<std::vector<std::vector<double>>> cost(segments.size());
+    std::vector<std::vector<std::vector<std::pair<int, int>>>> back(segments.size());
+    for (std::size_t i = 0; i < segments.size(); ++i) {
+        const auto& seg = segments[i];
+        const int n = int(seg.solutions.size());
+        cost[i].assign(std::size_t(rotations), std::vector<double>(std::size_t(n), kInf));
+        back[i].assign(std::size_t(rotations), std::vector<std::pair<int, int>>(std::size_t(n), {-1, -1}));
+        for (int d = 0; d < rotations; ++d) {
+            for (int j = 0; j < n; ++j) cost[i][std::size_t(d)][std::size_t(j)] = unary(seg, w, j, d);
+            if (i == 0) continue;
+            const auto& prev = segments[i - 1];
+            const Eigen::Vector2d a = displacement_term(prev, seg, w);
+            std::vector<double> best(std::size_t(n), kInf);
+            std::vector<std::pair<int, int>> arg(std::size_t(n), {-1, -1});
+            for (int dp = 0; dp < rotations; ++dp) {
+                const auto& g = cost[i - 1][std::size_t(dp)];
+                if (dp == d) {
+                    // Same rotation R: |a + R r - R r'|^2 = |R^-1 a + r - r'|^2, with r and r' on the
+                    // h grid: a separable 2D distance transform over the cells of R_{i-1}.
+                    const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
+                    int pi0 = INT32_MAX, pi1 = INT32_MIN, pj0 = INT32_MAX, pj1 = INT32_MIN;
+                    for (const auto& s : prev.solutions) pi0 = std::min(pi0, s.i), pi1 = std::max(pi1, s.i), pj0 = std::min(pj0, s.j), pj1 = std::max(pj1, s.j);
+                    int qi0 = INT32_MAX, qi1 = INT32_MIN, qj0 = INT32_MAX, qj1 = INT32_MIN;
+                    for (const auto& s : seg.solutions) qi0 = std::min(qi0, s.i), qi1 = std::max(qi1, s.i), qj0 = std::min(qj0, s.j), qj1 = std::max(qj1, s.j);
+                    const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
+                    // Best state of each cell of R_{i-1} (the first in (theta, y, x) order on ties).
+                    std::vector<double> cell(std::size_t(pw) * ph, kInf);
+                    std::vector<int> cell_state(std::size_t(pw) * ph, -1);
+                    for (int k = 0; k < int(prev.solutions.size()); ++k) {
+                        const auto& s = prev.solutions[std::size_t(k)];
+                        std::size_t at = std::size_t(s.j - pj0) * pw + std::size_t(s.i - pi0);
+                        if (g[std::size_t(k)] < cell[at]) cell[at] = g[std::size_t(k)], cell_state[at] = k;
+                    }
+                    // Pass 1, along x per row of R_{i-1}: centres (i h + shift.x), queries q_i h.
+                    std::vector<double> vx(static_cast<std::size_t>(pw)), qx(static_cast<std::size_t>(qw)), vy(static_cast<std::size_t>(ph)), qy(static_cast<std::size_t>(qh));
+                    for (int x = 0; x < pw; ++x) vx[std::size_t(x)] = (pi0 + x) * h + shift.x();
+                    for (int x = 0; x < qw; ++x) qx[std::size_t(x)] = (qi0 + x) * h;
+                    for (int y = 0; y < ph; ++y) vy[std::size_t(y)] = (pj0 + y) * h + shift.y();
+                    for (int y = 0; y < qh; ++y) qy[std::size_t(y)] = (qj0 + y) * h;
+                    std::vector<double> rows(std::size_t(ph) * qw);
+                    std::vector<int> row_arg(std::size_t(ph) * qw);
+                    std::vector<double> f;
+                    std::vector<int> am;
+                    for (int y = 0; y < ph; ++y) {
+                        std::vector<double> line(cell.begin() + std::ptrdiff_t(y) * pw, cell.begin() + std::ptrdiff_t(y + 1) * pw);
+                        lower_envelope(vx, line, c, qx, f, am);
+                        std::copy(f.begin(), f.end(), rows.begin() + std::ptrdiff_t(y) * qw);
+                        std::copy(am.begin(), am.end(), row_arg.begin() + std::ptrdiff_t(y) * qw);
+                    }
+                    // Pass 2, along y per query column.
+                    std::vector<double> column(static_cast<std::size_t>(ph));
+                    std::vector<double> field(std::size_t(qw) * qh);
+                    std::vector<int> field_state(std::size_t(qw) * qh, -1);
+                    for (int x = 0; x < qw; ++x) {
+                        for (int y = 0; y < ph; ++y) column[std::size_t(y)] = rows[std::size_t(y) * qw + std::size_t(x)];
+                        lower_envelope(vy, column, c, qy, f, am);
+                        for (int y = 0; y < qh; ++y) {
+                            field[std::size_t(y) * qw + std::size_t(x)] = f[std::size_t(y)];
+                            if (am[std::size_t(y)] >= 0) {
+                                int py = am[std::size_t(y)];
+                                int px = row_arg[std::size_t(py) * qw + std::size_t(x)];
+                                field_state[std::size_t(y) * qw + std::size_t(x)] = cell_state[std::size_t(py) * pw + std::size_t(px)];
+                            }
+                        }
+                    }
+                    for (int j = 0; j < n; ++j) {
+                        const auto& s = seg.solutions[std::size_t(j)];
+                        std::size_t at = std::size_t(s.j - qj0) * qw + std::size_t(s.i - qi0);
+                        if (field[at] < best[std::size_t(j)]) best[std::size_t(j)] = field[at], arg[std::size_t(j)] = {field_state[at], dp};
+                    }
+                } else {
+                    // Different rotations: the two point sets are not on one grid; direct minimum.
+                    for (int j = 0; j < n; ++j) {
+                        const Eigen::Vector2d qj = offset(seg.solutions[std::size_t(j)], w, d);
+                        for (int k = 0; k < int(prev.solutions.size()); ++k) {
+                            const double v = g[std::size_t(k)] + c * (a + offset(prev.solutions[std::size_t(k)], w, dp) - qj).squaredNorm();
+                            if (v < best[std::size_t(j)]) best[std::size_t(j)] = v, arg[std::size_t(j)] = {k, dp};
+                        }
+                    }
+                }
+            }
+            for (int j = 0; j < n; ++j) {
+                cost[i][std::size_t(d)][std::size_t(j)] += best[std::size_t(j)];
+                back[i][std::size_t(d)][std::size_t(j)] = arg[std::size_t(j)];
+            }
+        }
+    }
+    // The best final state; ties go to the first rotation, then the first solution in (theta, y, x) order.
+    ChainChoice choice;
+    const std::size_t last = segments.size() - 1;
+    int best_j = -1, best_d = -1;
+    double best = kInf;
+    for (int d = 0; d < rotations; ++d)
+        for (int j = 0; j < int(segments[last].solutions.size()); ++j)
+            if (cost[last][std::size_t(d)][std::size_t(j)] < best) best = cost[last][std::size_t(d)][std::size_t(j)], best_j = j, best_d = d;
+    choice.solution.assign(segments.size(), -1);
+    choice.rotation.assign(segments.size(), -1);
+    for (std::size_t i = last + 1; i-- > 0;) {
+        choice.solution[i] = best_j;
+        choice.rotation[i] = best_d;
+        if (i > 0) std::tie(best_j, best_d) = back[i][std::size_t(best_d)][std::size_t(best_j)];
+    }
+    evaluate_chain(segments, w, choice);
+    return choice;
+}
+
+std::vector<Eigen::Vector2d> a_translation_steps(const std::vector<ChainSegment>& segments, const ChainWeights& w,
+                                                 const ChainChoice& choice) {
+    std::vector<Eigen::Vector2d> steps;
+    for (std::size_t i = 0; i + 1 < segments.size(); ++i) {
+        Eigen::Vector2d e = displacement_term(segments[i], segments[i + 1], w) +
+                            offset(segments[i].solutions[std::size_t(choice.solution[i])], w, choice.rotation[i]) -
+                            offset(segments[i + 1].solutions[std::size_t(choice.solution[i + 1])], w, choice.rotation[i + 1]);
+        steps.push_back(std::isinf(w.w_a) ? Eigen::Vector2d::Zero() : Eigen::Vector2d(w.w_b * e / (w.w_a + w.w_b)));
+    }
+    return steps;
+}
+
+ChainChoice solve_chain_exhaustively(const std::vector<ChainSegment>& segments, const ChainWeights& w) {
+    check(segments, w);
+    const int rotations = int(w.a_rotations_rad.size());
+    ChainChoice current, best;
+    current.solution.assign(segments.size(), 0);
+    current.rotation.assign(segments.size(), 0);
+    best.cost = kInf;
+    while (true) {
+        evaluate_chain(segments, w, current);
+        if (current.cost < best.cost) best = current;
+        std::size_t i = 0;
+        for (; i < segments.size(); ++i) {
+            if (++current.rotation[i] < rotations) break;
+            current.rotation[i] = 0;
+            if (++current.solution[i] < int(segments[i].solutions.size())) break;
+            current.solution[i] = 0;
+        }
+        if (i == segments.size()) break;
+    }
+    return best;
+}
+
+}  // namespace amhv

@@ -1,0 +1,134 @@
+// The choice of one solution per key segment (METHOD.md section 7): the distance-transform DP
+// against exhaustive enumeration, the lower envelope against brute force, and the w_A -> infinity limit.
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "optimise/chain_dp.hpp"
+
+namespace amhv {
+namespace {
+
+TEST(ChainDp, LowerEnvelopeMatchesBruteForce) {
+    std::mt19937 random(7);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int round = 0; round < 200; ++round) {
+        int n = 1 + int(random() % 12), m = 1 + int(random() % 12);
+        std::vector<double> v(static_cast<std::size_t>(n)), g(static_cast<std::size_t>(n)), q(static_cast<std::size_t>(m));
+        for (int k = 0; k < n; ++k) {
+            v[std::size_t(k)] = std::round(u(random) * 5) * 0.1 + (round % 2 ? 0.037 : 0);
+            g[std::size_t(k)] = random() % 5 == 0 ? std::numeric_limits<double>::infinity() : u(random);
+        }
+        std::sort(v.begin(), v.end());
+        for (auto& x : q) x = u(random) * 0.8;
+        std::sort(q.begin(), q.end());
+        const double c = 0.5 + std::abs(u(random)) * 10;
+        std::vector<double> f;
+        std::vector<int> arg;
+        lower_envelope(v, g, c, q, f, arg);
+        for (int t = 0; t < m; ++t) {
+            double best = std::numeric_limits<double>::infinity();
+            for (int k = 0; k < n; ++k) best = std::min(best, g[std::size_t(k)] + c * std::pow(q[std::size_t(t)] - v[std::size_t(k)], 2));
+            if (std::isinf(best)) {
+                EXPECT_TRUE(std::isinf(f[std::size_t(t)]));
+                continue;
+            }
+            EXPECT_NEAR(f[std::size_t(t)], best, 1e-12);
+            int k = arg[std::size_t(t)];
+            ASSERT_GE(k, 0);
+            EXPECT_NEAR(g[std::size_t(k)] + c * std::pow(q[std::size_t(t)] - v[std::size_t(k)], 2), best, 1e-12);
+        }
+    }
+}
+
+std::vector<ChainSegment> random_chain(std::mt19937& random, int segments, int max_solutions) {
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::vector<ChainSegment> chain(static_cast<std::size_t>(segments));
+    Eigen::Vector2d a(0, 0), b(1.5, 0.3);
+    for (auto& s : chain) {
+        a += Eigen::Vector2d(u(random), u(random));
+        b += Eigen::Vector2d(u(random), u(random));
+        s.root_a = a;
+        s.root_b = b;
+        s.prior_offset = Eigen::Vector2d(u(random), u(random)) * 0.5;
+        s.prior_theta_rad = u(random) * 3;
+        const int n = 1 + int(random() % unsigned(max_solutions));
+        for (int k = 0; k < n; ++k) s.solutions.push_back({int(random() % 21) - 10, int(random() % 21) - 10, u(random) * std::numbers::pi});
+    }
+    return chain;
+}
+
+TEST(ChainDp, MatchesExhaustiveEnumeration) {
+    std::mt19937 random(20261121);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int round = 0; round < 300; ++round) {
+        auto chain = random_chain(random, 1 + round % 4, 7);
+        ChainWeights w;
+        w.voxel = 0.05;
+        w.w_a = 0.2 + 3 * u(random);
+        w.w_b = 0.2 + 3 * u(random);
+        w.lambda = round % 5 == 0 ? 0 : 2 * u(random);
+        w.mu = round % 3 == 0 ? 0 : 0.5 * u(random);
+        w.yaw_a = (u(random) - 0.5) * 2;
+        w.yaw_b = (u(random) - 0.5) * 2;
+        if (round % 2) w.a_rotations_rad = {-0.2, 0.0, 0.15};
+        ChainChoice dp = solve_chain(chain, w), all = solve_chain_exhaustively(chain, w);
+        ASSERT_NEAR(dp.cost, all.cost, 1e-9 * (1 + all.cost)) << "round " << round;
+        ChainChoice check = dp;
+        evaluate_chain(chain, w, check);
+        EXPECT_NEAR(check.cost, dp.cost, 1e-12 * (1 + dp.cost));
+    }
+}
+
+// w_A -> infinity: A's translations vanish (A stays where it was captured) and the choice is the
+// one that best keeps B's displacements alone.
+TEST(ChainDp, InfiniteWeightOnAKeepsAInPlace) {
+    std::mt19937 random(3);
+    for (int round = 0; round < 50; ++round) {
+        auto chain = random_chain(random, 3, 6);
+        ChainWeights w;
+        w.voxel = 0.05;
+        w.w_a = std::numeric_limits<double>::infinity();
+        ChainChoice dp = solve_chain(chain, w);
+        for (const auto& step : a_translation_steps(chain, w, dp)) EXPECT_EQ(step.norm(), 0.0);
+        ChainWeights huge = w;
+        huge.w_a = 1e12;
+        EXPECT_NEAR(solve_chain_exhaustively(chain, huge).cost, dp.cost, 1e-6 * (1 + dp.cost));
+        ChainWeights finite = w;
+        finite.w_a = 1;
+        bool moved = false;
+        for (const auto& step : a_translation_steps(chain, finite, solve_chain(chain, finite))) moved = moved || step.norm() > 0;
+        EXPECT_TRUE(moved);
+    }
+}
+
+// A large chain: 3 segments of 40,000 solutions on 100 x 100 cells x 4 angles; the DP optimum is
+// no worse than any of many random choices and than the best choice per segment pair found greedily.
+TEST(ChainDp, LargeGroupsAreHandled) {
+    std::vector<ChainSegment> chain(3);
+    for (int s = 0; s < 3; ++s) {
+        chain[std::size_t(s)].root_a = Eigen::Vector2d(2.0 * s, 0);
+        chain[std::size_t(s)].root_b = Eigen::Vector2d(2.0 * s + 0.3 * s, 1.0 + 0.1 * s);
+        for (int k = 0; k < 4; ++k)
+            for (int j = -50; j < 50; ++j)
+                for (int i = -50; i < 50; ++i) chain[std::size_t(s)].solutions.push_back({i, j, k * std::numbers::pi / 2});
+    }
+    ChainWeights w;
+    ChainChoice dp = solve_chain(chain, w);
+    std::mt19937 random(11);
+    for (int trial = 0; trial < 2000; ++trial) {
+        ChainChoice other = dp;
+        for (std::size_t s = 0; s < 3; ++s) other.solution[s] = int(random() % chain[s].solutions.size());
+        evaluate_chain(chain, w, other);
+        EXPECT_LE(dp.cost, other.cost + 1e-12);
+    }
+    // Perfectly consistent offsets exist (B's displacement minus A's is on the grid), so the
+    // pairwise term reaches zero.
+    EXPECT_NEAR(dp.pairwise, 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace amhv
