@@ -218,3 +218,31 @@ INSTANTIATE_TEST_SUITE_P(
 
 }  // namespace
 }  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// A box as the volume of interest: A's body voxels inside the box (its upper half, where B's hand
+// comes), in the capture frame.
+TEST(Scene, BoxInterestSweeps) {
+    SceneFixture fixture;
+    std::string text = read_text(fixture.scene);
+    const std::string from = "A = { meshes = \"fist/%04d.obj\" }";
+    text = text.substr(0, text.find(from)) + "A = { box = { min = [-0.3, -0.3, 1.0], max = [0.3, 0.3, 1.5] } }" +
+           text.substr(text.find(from) + from.size());
+    // B's hand points away from its facing in this fixture: leave visibility out of this test.
+    text.replace(text.find("enabled = true"), 14, "enabled = false");
+    std::ofstream(fixture.scene) << text;
+    const std::string scene = fmt::format("'{}'", fixture.scene.string());
+    auto result = test::run_amhv("sweep " + scene + " --no-maps --out '" + (fixture.dir.path() / "out").string() + "'");
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    auto json = nlohmann::json::parse(read_text(fixture.dir.path() / "out/result.json"));
+    EXPECT_GT(json["segments"][0]["solutions"].get<std::uint64_t>(), 0u) << result.output;
+    EXPECT_EQ(json["segments"][0]["interest"]["A"], "box [-0.3, -0.3, 1] - [0.3, 0.3, 1.5]");
+    auto cpu = test::run_amhv("sweep " + scene + " --no-maps --backend cpu --out '" + (fixture.dir.path() / "cpu").string() + "'");
+    ASSERT_EQ(cpu.exit_code, 0) << cpu.output;
+    EXPECT_EQ(read_text(fixture.dir.path() / "out/segment_1/solutions.csv"), read_text(fixture.dir.path() / "cpu/segment_1/solutions.csv"));
+}
+
+}  // namespace
+}  // namespace amhv
