@@ -7,11 +7,6 @@ namespace amhv {
 
 namespace {
 
-std::array<std::int64_t, 3> lattice_origin(const VoxelGrid& grid) {
-    return {std::llround(grid.origin.x() / grid.voxel), std::llround(grid.origin.y() / grid.voxel),
-            std::llround(grid.origin.z() / grid.voxel)};
-}
-
 // An occupied voxel of a volume on the A side, with its global lattice position.
 struct LatticeVoxel {
     std::size_t index;
@@ -21,7 +16,7 @@ struct LatticeVoxel {
 std::vector<LatticeVoxel> occupied_voxels(const Amhv& volume) {
     std::vector<LatticeVoxel> list;
     const VoxelGrid& g = volume.grid();
-    auto o = lattice_origin(g);
+    auto o = g.lattice_origin();
     for (int z = 0; z < g.dims[2]; ++z)
         for (int y = 0; y < g.dims[1]; ++y)
             for (int x = 0; x < g.dims[0]; ++x) {
@@ -31,6 +26,18 @@ std::vector<LatticeVoxel> occupied_voxels(const Amhv& volume) {
     return list;
 }
 
+// A volume of B with its lattice origin, found once per sweep.
+struct BVolume {
+    const Amhv& volume;
+    std::array<std::int64_t, 3> origin;
+    explicit BVolume(const Amhv& v) : volume(v), origin(v.grid().lattice_origin()) {}
+    bool any(std::size_t voxel) const { return volume.any(voxel); }
+};
+
+struct BSide {
+    BVolume interest, fidelity, whole, cone;
+};
+
 // The pull mapping of one pose into one volume of B.
 class PoseLookup {
 public:
@@ -38,10 +45,10 @@ public:
         : i_(i), j_(j), trig_(problem.trig(k)), root_a_(problem.root_a_q()), root_b_(problem.root_b_q()) {}
 
     // B's voxel of `volume` under A's lattice voxel `u`, if inside B's grid.
-    std::optional<std::size_t> operator()(const Amhv& volume, const LatticeVoxel& u) const {
+    std::optional<std::size_t> operator()(const BVolume& b, const LatticeVoxel& u) const {
         auto source = posemap::source_column(u.gx - i_, u.gy - j_, trig_, root_a_[0], root_a_[1], root_b_[0], root_b_[1]);
-        const VoxelGrid& g = volume.grid();
-        auto o = lattice_origin(g);
+        const VoxelGrid& g = b.volume.grid();
+        const auto& o = b.origin;
         std::int64_t x = source.x - o[0], y = source.y - o[1], z = u.gz - o[2];  // z is kept
         if (x < 0 || y < 0 || z < 0 || x >= g.dims[0] || y >= g.dims[1] || z >= g.dims[2]) return std::nullopt;
         return g.index(int(x), int(y), int(z));
@@ -65,7 +72,7 @@ struct ASide {
     std::vector<LatticeVoxel> interest, fidelity, whole, cone;
 };
 
-PoseOutcome evaluate(const SweepProblem& p, const ASide& a, int i, int j, int k) {
+PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int i, int j, int k) {
     PoseLookup lookup(p, i, j, k);
     const int frames = p.frames();
     const int last = frames - 1;
@@ -73,7 +80,7 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, int i, int j, int k)
     // Contact (eq. 3): K = V(I^A) n V(I^B) is not empty.
     std::vector<std::pair<std::size_t, std::size_t>> contact;  // (A voxel, B voxel) of K
     for (const LatticeVoxel& u : a.interest)
-        if (auto vb = lookup(p.b.interest, u); vb && p.b.interest.any(*vb)) contact.emplace_back(u.index, *vb);
+        if (auto vb = lookup(b.interest, u); vb && b.interest.any(*vb)) contact.emplace_back(u.index, *vb);
     if (contact.empty()) return PoseOutcome::FailsContact;
 
     // Interaction dictionary (eq. 4-11).
@@ -106,7 +113,7 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, int i, int j, int k)
 
     // Fidelity (eq. 15): no voxel of N^A and N^B at the same frame.
     for (const LatticeVoxel& u : a.fidelity) {
-        auto vb = lookup(p.b.fidelity, u);
+        auto vb = lookup(b.fidelity, u);
         if (!vb) continue;
         for (int t = 0; t < frames; ++t)
             if (p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t)) return PoseOutcome::FailsFidelity;
@@ -116,12 +123,12 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, int i, int j, int k)
     if (p.visibility) {
         bool a_sees_b = false, b_sees_a = false;
         for (const LatticeVoxel& u : a.cone)
-            if (auto vb = lookup(p.b.whole, u); vb && p.b.whole.any(*vb)) {
+            if (auto vb = lookup(b.whole, u); vb && b.whole.any(*vb)) {
                 a_sees_b = true;
                 break;
             }
         for (const LatticeVoxel& u : a.whole)
-            if (auto vb = lookup(p.b.view_cone, u); vb && p.b.view_cone.any(*vb)) {
+            if (auto vb = lookup(b.cone, u); vb && b.cone.any(*vb)) {
                 b_sees_a = true;
                 break;
             }
@@ -142,12 +149,13 @@ SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int firs
     result.outcomes.assign(r.size(), PoseOutcome::FailsContact);
     ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}};
     if (problem.visibility) a.cone = occupied_voxels(problem.a.view_cone);
+    const BSide b{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(problem.b.view_cone)};
     const int last_angle = std::min(r.angles, first_angle + angle_count);
     for (int k = first_angle; k < last_angle; ++k) {
         for (int j = r.j_first; j <= r.j_last; ++j)
             for (int i = r.i_first; i <= r.i_last; ++i)
                 result.outcomes[(std::size_t(k) * r.height() + (j - r.j_first)) * r.width() + (i - r.i_first)] =
-                    evaluate(problem, a, i, j, k);
+                    evaluate(problem, a, b, i, j, k);
         if (progress) progress(k + 1 - first_angle, last_angle - first_angle);
     }
     result.count();

@@ -1,5 +1,7 @@
 #pragma once
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <cstddef>
 
 #include "core/geometry.hpp"
@@ -21,6 +23,10 @@ struct VoxelGrid {
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * dims[1] + y) * dims[0] + x; }
     Vec3 centre(int x, int y, int z) const {
         return origin + voxel * Vec3(x + 0.5, y + 0.5, z + 0.5);
+    }
+    // Global lattice index of voxel (0, 0, 0): origin / voxel, a whole number by construction.
+    std::array<std::int64_t, 3> lattice_origin() const {
+        return {std::llround(origin.x() / voxel), std::llround(origin.y() / voxel), std::llround(origin.z() / voxel)};
     }
 };
 

@@ -40,6 +40,16 @@ Buffer::Buffer(Context& context, vk::DeviceSize size, Memory memory)
     if (memory == Memory::Host) mapped_ = memory_.mapMemory(0, size_);
 }
 
+void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes) {
+    if (!buffer || buffer->size() < bytes) buffer = std::make_unique<Buffer>(context, std::max<vk::DeviceSize>(bytes, 4096), Buffer::Memory::Host);
+}
+
+std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes) {
+    auto buffer = std::make_unique<Buffer>(context, std::max<vk::DeviceSize>(bytes, 16), Buffer::Memory::Host);
+    if (bytes) std::memcpy(buffer->mapped<std::uint8_t>().data(), data, bytes);
+    return buffer;
+}
+
 Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint32_t buffer_count,
                std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation)
     : context_(context),

@@ -3,6 +3,7 @@
 // embedded SPIR-V, specialised at creation) and Sequence (a recorded batch of fills, dispatches
 // and barriers submitted at once).
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -32,6 +33,11 @@ private:
     vk::raii::DeviceMemory memory_;
     void* mapped_ = nullptr;
 };
+
+// Grows a host buffer to at least `bytes` (never shrinks, so batches reuse it).
+void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes);
+// A new host buffer holding a copy of `bytes` bytes at `data`.
+std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes);
 
 class Kernel {
 public:

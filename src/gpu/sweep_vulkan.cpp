@@ -61,16 +61,6 @@ struct Blocks {
     int frames_per_item = 0, spatial_items = 1;
 };
 
-std::unique_ptr<Buffer> upload(Context& context, const void* data, std::size_t bytes) {
-    auto buffer = std::make_unique<Buffer>(context, std::max<std::size_t>(bytes, 16), Buffer::Memory::Host);
-    if (bytes) std::memcpy(buffer->mapped<std::uint8_t>().data(), data, bytes);
-    return buffer;
-}
-
-void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, std::uint64_t bytes) {
-    if (!buffer || buffer->size() < bytes) buffer = std::make_unique<Buffer>(context, std::max<std::uint64_t>(bytes, 4096), Buffer::Memory::Host);
-}
-
 }  // namespace
 
 VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
@@ -98,8 +88,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     auto add = [&](ColumnVolume columns) {
         auto v = std::make_unique<GpuVolume>();
         v->columns = std::move(columns);
-        v->bits = upload(context_, v->columns.bits.data(), v->columns.bits.size() * 4);
-        v->rows = upload(context_, v->columns.rows.data(), v->columns.rows.size() * 8);
+        v->bits = upload_to_host(context_, v->columns.bits.data(), v->columns.bits.size() * 4);
+        v->rows = upload_to_host(context_, v->columns.rows.data(), v->columns.rows.size() * 8);
         volumes.push_back(std::move(v));
         return volumes.back().get();
     };
@@ -153,14 +143,14 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 std::copy(bounds.begin(), bounds.end(), angle.bounds);
                 std::memcpy(table.data() + 32 + std::size_t(k) * sizeof(GpuAngle), &angle, sizeof(angle));
             }
-            test.moving->angles = upload(context_, table.data(), table.size());
+            test.moving->angles = upload_to_host(context_, table.data(), table.size());
         }
     for (const auto& stage : stages)
         for (const OverlapTest& test : stage) {
             if (test.want != Want::EveryFrame) continue;
             if (!test.fixed->frame_boxes) {
                 const auto& boxes = test.fixed->columns.slot_boxes;
-                test.fixed->frame_boxes = upload(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
+                test.fixed->frame_boxes = upload_to_host(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
             }
             if (!test.moving->angle_frame_boxes) {
                 const ColumnVolume& m = test.moving->columns;
@@ -168,7 +158,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 for (int k = 0; k < range.angles; ++k)
                     for (int t = 0; t < m.frames(); ++t)
                         boxes.push_back(mapped_bounds(m, m.slot_boxes[std::size_t(1 + t)], trig[std::size_t(k)], root_a, root_b));
-                test.moving->angle_frame_boxes = upload(context_, boxes.data(), boxes.size() * 16);
+                test.moving->angle_frame_boxes = upload_to_host(context_, boxes.data(), boxes.size() * 16);
             }
         }
 
@@ -221,9 +211,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             offsets.push_back(flag_words_total);
             flag_words_total += count * std::uint64_t(test.flag_words());
         }
-        ensure_capacity(context_, flags, flag_words_total * 4);
+        ensure_host_capacity(context_, flags, flag_words_total * 4);
         if (pose_list) {
-            ensure_capacity(context_, poses, pose_list->size() * 16);
+            ensure_host_capacity(context_, poses, pose_list->size() * 16);
             std::memcpy(poses->mapped<std::uint8_t>().data(), pose_list->data(), pose_list->size() * 16);
         }
         sequence.fill(*flags, flag_words_total * 4, 0u);

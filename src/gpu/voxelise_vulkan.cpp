@@ -26,11 +26,6 @@ struct ColumnParams {
     std::int32_t nx, ny, slab_layers, frames, bit_offset, padding;
 };
 
-// Grows a host buffer to at least `bytes` (never shrinks: batches reuse it).
-void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, std::uint64_t bytes) {
-    if (!buffer || buffer->size() < bytes) buffer = std::make_unique<Buffer>(context, std::max<std::uint64_t>(bytes, 4096), Buffer::Memory::Host);
-}
-
 }  // namespace
 
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
@@ -121,8 +116,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 plan_.work_items += batch_items.size() / 2;
                 if (batch_items.empty()) continue;  // no closed surface in this batch: its bits stay 0
                 any_work = true;
-                ensure_capacity(context_, triangles, batch_triangles.size() * sizeof(GpuTriangle));
-                ensure_capacity(context_, work_items, batch_items.size() * sizeof(std::uint32_t));
+                ensure_host_capacity(context_, triangles, batch_triangles.size() * sizeof(GpuTriangle));
+                ensure_host_capacity(context_, work_items, batch_items.size() * sizeof(std::uint32_t));
                 std::memcpy(triangles->mapped<GpuTriangle>().data(), batch_triangles.data(), batch_triangles.size() * sizeof(GpuTriangle));
                 std::memcpy(work_items->mapped<std::uint32_t>().data(), batch_items.data(), batch_items.size() * sizeof(std::uint32_t));
                 auto raster_set = raster_.bind({triangles.get(), work_items.get(), &deltas, &first_layer, &last_layer});

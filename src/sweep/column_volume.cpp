@@ -10,13 +10,12 @@ namespace amhv {
 
 namespace {
 
-std::int64_t lattice(double coordinate, double voxel) { return std::llround(coordinate / voxel); }
-
 ColumnVolume empty_like(const Amhv& volume, const ZFrame& z, int slots) {
     const VoxelGrid& g = volume.grid();
     ColumnVolume c;
-    c.x0 = lattice(g.origin.x(), g.voxel);
-    c.y0 = lattice(g.origin.y(), g.voxel);
+    const auto origin = g.lattice_origin();
+    c.x0 = origin[0];
+    c.y0 = origin[1];
     c.nx = g.dims[0];
     c.ny = g.dims[1];
     c.slots = slots;
@@ -29,7 +28,7 @@ ColumnVolume empty_like(const Amhv& volume, const ZFrame& z, int slots) {
 template <typename Visit>
 void for_each_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& c, Visit visit) {
     const VoxelGrid& g = volume.grid();
-    const std::int64_t z0 = lattice(g.origin.z(), g.voxel) - z.z_first;
+    const std::int64_t z0 = g.lattice_origin()[2] - z.z_first;
     for (int y = 0; y < g.dims[1]; ++y)
         for (int x = 0; x < g.dims[0]; ++x) {
             std::uint32_t* column = c.column(x, y);
@@ -46,7 +45,7 @@ ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids) {
     std::int64_t first = std::numeric_limits<std::int64_t>::max(), last = std::numeric_limits<std::int64_t>::min();
     for (const VoxelGrid* g : grids) {
         if (g->dims[2] == 0) continue;
-        std::int64_t z0 = lattice(g->origin.z(), g->voxel);
+        std::int64_t z0 = g->lattice_origin()[2];
         first = std::min(first, z0);
         last = std::max(last, z0 + g->dims[2] - 1);
     }
