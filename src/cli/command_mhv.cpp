@@ -9,18 +9,17 @@
 #include <spdlog/spdlog.h>
 
 #include "body/skeleton_body.hpp"
+#include "cli/backend.hpp"
 #include "cli/commands.hpp"
 #include "core/error.hpp"
 #include "core/normalise.hpp"
 #include "core/voxelise.hpp"
-#include "gpu/voxelise_vulkan.hpp"
 #include "io/amhv_file.hpp"
 #include "io/bvh.hpp"
 #include "io/exr_slices.hpp"
 #include "io/mesh_sequence.hpp"
 #include "io/output_dir.hpp"
 #include "io/vdb_file.hpp"
-#include "reference/voxelise_reference.hpp"
 
 namespace amhv::cli {
 
@@ -98,23 +97,12 @@ void run_mhv(const MhvArguments& args) {
     timings["prepare"] = clock.lap();
 
     // 3. Voxelise.
-    std::unique_ptr<gpu::Context> context;
-    std::unique_ptr<Voxeliser> backend;
-    std::string device = "cpu";
-    if (args.backend == "vulkan") {
-        gpu::ContextOptions options;
-        if (args.device >= 0) options.device_index = std::uint32_t(args.device);
-        context = std::make_unique<gpu::Context>(options);
-        backend = std::make_unique<gpu::VulkanVoxeliser>(*context);
-        device = fmt::format("{} ({}, {})", context->selected().name, context->selected().type, context->selected().driver);
-    } else if (args.backend == "cpu") {
-        backend = std::make_unique<ReferenceVoxeliser>();
-    } else {
-        throw Error(fmt::format("--backend: '{}' is not vulkan or cpu", args.backend));
-    }
+    Backend backend(args.backend, args.device);
+    const std::string& device = backend.device();
+    Voxeliser& voxeliser = backend.voxeliser();
     timings["device"] = clock.lap();
     VoxeliseReport report;
-    Amhv volume = voxelise(input, *backend, &report);
+    Amhv volume = voxelise(input, voxeliser, &report);
     timings["voxelise"] = clock.lap();
     AmhvSummary summary = summarise(volume);
     if (summary.gap_voxels) spdlog::info("{} voxels are occupied in more than one interval of frames", summary.gap_voxels);

@@ -8,14 +8,11 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "cli/backend.hpp"
 #include "cli/commands.hpp"
 #include "core/error.hpp"
-#include "gpu/sweep_vulkan.hpp"
-#include "gpu/voxelise_vulkan.hpp"
 #include "io/output_dir.hpp"
 #include "io/sweep_output.hpp"
-#include "reference/sweep_reference.hpp"
-#include "reference/voxelise_reference.hpp"
 #include "scene/scene.hpp"
 #include "scene/segment.hpp"
 
@@ -69,23 +66,9 @@ void run_sweep(const SweepArguments& args) {
     if (args.segment < 0 || args.segment > int(scene.segments.size()))
         throw Error(fmt::format("--segment: {} is not a key segment of {} (1..{})", args.segment, args.scene, scene.segments.size()));
 
-    std::unique_ptr<gpu::Context> context;
-    std::unique_ptr<Voxeliser> voxeliser;
-    std::unique_ptr<Sweeper> sweeper;
-    std::string device = "cpu";
-    if (args.backend == "vulkan") {
-        gpu::ContextOptions options;
-        if (args.device >= 0) options.device_index = std::uint32_t(args.device);
-        context = std::make_unique<gpu::Context>(options);
-        voxeliser = std::make_unique<gpu::VulkanVoxeliser>(*context);
-        sweeper = std::make_unique<gpu::VulkanSweeper>(*context);
-        device = fmt::format("{} ({}, {})", context->selected().name, context->selected().type, context->selected().driver);
-    } else if (args.backend == "cpu") {
-        voxeliser = std::make_unique<ReferenceVoxeliser>();
-        sweeper = std::make_unique<ReferenceSweeper>();
-    } else {
-        throw Error(fmt::format("--backend: '{}' is not vulkan or cpu", args.backend));
-    }
+    Backend backend(args.backend, args.device);
+    Voxeliser& voxeliser = backend.voxeliser();
+    Sweeper& sweeper = backend.sweeper();
 
     ObjectSource a(scene.a), b(scene.b);
     StagedOutput out(args.out);
@@ -93,7 +76,7 @@ void run_sweep(const SweepArguments& args) {
     json["program"] = std::string("amhv ") + AMHV_VERSION;
     json["scene"] = scene.file.string();
     json["backend"] = args.backend;
-    json["device"] = device;
+    json["device"] = backend.device();
     const Weights& w = scene.weights;
     json["parameters"] = {{"voxel_m", scene.sampling.voxel},
                           {"angle_step_deg", scene.sampling.angle_step_deg},
@@ -108,15 +91,15 @@ void run_sweep(const SweepArguments& args) {
         if (args.segment && segment.index != args.segment) continue;
         nlohmann::ordered_json timings;
         auto t0 = std::chrono::steady_clock::now();
-        SegmentBuild build = build_segment(scene, segment, a, b, *voxeliser);
+        SegmentBuild build = build_segment(scene, segment, a, b, voxeliser);
         timings["mhv"] = seconds_since(t0);
         const SweepProblem& problem = build.problem;
 
         t0 = std::chrono::steady_clock::now();
         ProgressBar bar(fmt::format("segment {} ({})", segment.index, segment.type.name()));
-        sweeper->progress = [&bar](int done, int total) { bar(done, total); };
-        SweepResult result = sweeper->sweep(problem);
-        sweeper->progress = nullptr;
+        sweeper.progress = [&bar](int done, int total) { bar(done, total); };
+        SweepResult result = sweeper.sweep(problem);
+        sweeper.progress = nullptr;
         timings["sweep"] = seconds_since(t0);
 
         t0 = std::chrono::steady_clock::now();

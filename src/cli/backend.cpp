@@ -1,0 +1,39 @@
+#include "cli/backend.hpp"
+
+#include "core/error.hpp"
+#include "gpu/sweep_vulkan.hpp"
+#include "gpu/voxelise_vulkan.hpp"
+#include "reference/sweep_reference.hpp"
+#include "reference/voxelise_reference.hpp"
+
+namespace amhv::cli {
+
+Backend::Backend(const std::string& name, int device) {
+    if (name == "vulkan") {
+        gpu::ContextOptions options;
+        if (device >= 0) options.device_index = std::uint32_t(device);
+        context_ = std::make_unique<gpu::Context>(options);
+        const auto& selected = context_->selected();
+        device_ = fmt::format("{} ({}, {})", selected.name, selected.type, selected.driver);
+    } else if (name != "cpu") {
+        throw Error(fmt::format("--backend: '{}' is not vulkan or cpu", name));
+    }
+}
+
+Voxeliser& Backend::voxeliser() {
+    if (!voxeliser_) {
+        if (context_) voxeliser_ = std::make_unique<gpu::VulkanVoxeliser>(*context_);
+        else voxeliser_ = std::make_unique<ReferenceVoxeliser>();
+    }
+    return *voxeliser_;
+}
+
+Sweeper& Backend::sweeper() {
+    if (!sweeper_) {
+        if (context_) sweeper_ = std::make_unique<gpu::VulkanSweeper>(*context_);
+        else sweeper_ = std::make_unique<ReferenceSweeper>();
+    }
+    return *sweeper_;
+}
+
+}  // namespace amhv::cli

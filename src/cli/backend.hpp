@@ -1,0 +1,30 @@
+#pragma once
+// `--backend vulkan|cpu` and `--device N`, shared by the subcommands: the Vulkan context with the
+// GPU voxeliser and sweeper, or the plain CPU references. Each stage's pipeline is only built when
+// a subcommand first asks for it.
+#include <memory>
+#include <string>
+
+#include "core/voxelise.hpp"
+#include "gpu/context.hpp"
+#include "sweep/problem.hpp"
+
+namespace amhv::cli {
+
+class Backend {
+public:
+    // Throws amhv::Error for an unknown backend name; `device` < 0 lets the context choose.
+    Backend(const std::string& name, int device);
+
+    Voxeliser& voxeliser();
+    Sweeper& sweeper();
+    const std::string& device() const { return device_; }  // "name (type, driver)", or "cpu"
+
+private:
+    std::unique_ptr<gpu::Context> context_;  // null for cpu
+    std::unique_ptr<Voxeliser> voxeliser_;
+    std::unique_ptr<Sweeper> sweeper_;
+    std::string device_ = "cpu";
+};
+
+}  // namespace amhv::cli
