@@ -246,3 +246,23 @@ TEST(Scene, BoxInterestSweeps) {
 
 }  // namespace
 }  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// A part name that no label file uses is an error naming the object and the part.
+TEST(Scene, UnknownPartInLabelFilesIsAnError) {
+    SceneFixture fixture;
+    std::string text = read_text(fixture.scene);
+    const std::string from = "B = { parts = [\"hand\"] }";
+    text = text.substr(0, text.find(from)) + "B = { parts = [\"hnad\"] }" + text.substr(text.find(from) + from.size());
+    std::ofstream(fixture.scene) << text;
+    const fs::path out = fixture.dir.path() / "out";
+    auto result = test::run_amhv(fmt::format("sweep '{}' --out '{}'", fixture.scene.string(), out.string()));
+    EXPECT_NE(result.exit_code, 0);
+    EXPECT_NE(result.output.find("object B has no part 'hnad'"), std::string::npos) << result.output;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
+}  // namespace amhv

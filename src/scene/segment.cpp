@@ -98,6 +98,24 @@ std::vector<BodyPart> split_by_labels(const TriangleMesh& mesh, const std::vecto
     return parts;
 }
 
+// The file of frame `number` of a folder or pattern (list_frames checks it exists).
+fs::path frame_file(const std::string& spec, int number) { return list_frames(spec, FrameRange{number, number}).front().path; }
+
+// Mean eye position and gaze over `frames`, when the track has every one of them.
+std::optional<TrackSample> mean_track(const ObjectSource& object, const std::vector<int>& frames) {
+    if (frames.empty()) return std::nullopt;
+    TrackSample mean{Vec3::Zero(), Vec3::Zero()};
+    for (int f : frames) {
+        auto sample = object.track(f);
+        if (!sample) return std::nullopt;
+        mean.eye += sample->eye;
+        mean.gaze += sample->gaze;
+    }
+    mean.eye /= double(frames.size());
+    mean.gaze /= double(frames.size());
+    return mean;
+}
+
 double reach_from(const Amhv& volume, const Vec3& root) {
     Box3 b = summarise(volume).bounds;
     if (b.empty()) return 0;
@@ -128,11 +146,9 @@ const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
     if (motion_) {
         parts = skeleton_body_parts(*motion_, number, body_options_);
     } else {
-        auto files = list_frames(spec_.meshes, FrameRange{number, number});
-        TriangleMesh mesh = read_mesh(files.front().path, spec_.units);
+        TriangleMesh mesh = read_mesh(frame_file(spec_.meshes, number), spec_.units);
         if (!spec_.labels.empty()) {
-            auto label_files = list_frames(spec_.labels, FrameRange{number, number});
-            parts = split_by_labels(mesh, read_labels(label_files.front().path, mesh.vertices.size()));
+            parts = split_by_labels(mesh, read_labels(frame_file(spec_.labels, number), mesh.vertices.size()));
             for (const auto& p : parts)
                 if (std::find(label_names_.begin(), label_names_.end(), p.name) == label_names_.end()) label_names_.push_back(p.name);
         } else {
@@ -150,24 +166,16 @@ std::optional<TrackSample> ObjectSource::track(int number) const {
 const MeshFrame& ObjectSource::part_frame(const std::string& meshes, int number) {
     auto key = std::make_pair(meshes, number);
     if (auto it = part_frames_.find(key); it != part_frames_.end()) return it->second;
-    auto files = list_frames(meshes, FrameRange{number, number});
-    MeshFrame frame{read_mesh(files.front().path, spec_.units), files.front().path.string()};
+    const fs::path file = frame_file(meshes, number);
+    MeshFrame frame{read_mesh(file, spec_.units), file.string()};
     return part_frames_.emplace(key, std::move(frame)).first->second;
 }
 
 Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int>& frames) {
-    Vec3 sum = Vec3::Zero();
-    bool tracked = true;
-    for (int f : frames) {
-        auto sample = object.track(f);
-        if (!sample) {
-            tracked = false;
-            break;
-        }
-        sum += sample->gaze;
+    if (auto mean = mean_track(object, frames)) {
+        Eigen::Vector2d facing(mean->gaze.x(), mean->gaze.y());
+        if (facing.norm() > 1e-9) return facing.normalized();
     }
-    Eigen::Vector2d facing(sum.x(), sum.y());
-    if (tracked && !frames.empty() && facing.norm() > 1e-9) return facing.normalized();
     double degrees = object.spec().facing_deg.value_or(0.0);
     return {std::cos(degrees * std::numbers::pi / 180), std::sin(degrees * std::numbers::pi / 180)};
 }
@@ -193,15 +201,6 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
             }
             return out;
         };
-        for (const PartSpec* spec : {&interest, &fidelity})
-            for (const std::string& label : spec->labels)
-                if (!source.label_names().empty() &&
-                    std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end()) {
-                    // Labels from files are only known once frames are read; read the first now.
-                    source.frame_parts(first + relative.front());
-                    if (std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end())
-                        fail(where, "object {} has no part '{}'", name, label);
-                }
         for (std::size_t m = 0; m < relative.size(); ++m) {
             const int number = first + relative[m];
             numbers.push_back(number);
@@ -225,6 +224,12 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
             attach(interest, frames[m].interest);
             attach(fidelity, frames[m].fidelity);
         }
+        // Every part named must exist: label files name their parts only as frames are read, so
+        // this comes after the segment's frames (and before any voxelisation).
+        for (const PartSpec* spec : {&interest, &fidelity})
+            for (const std::string& label : spec->labels)
+                if (std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end())
+                    fail(where, "object {} has no part '{}'", name, label);
         auto rule = [](const PartSpec& spec) {
             switch (spec.kind) {
                 case PartSpec::Kind::Whole: return PartRule::Whole;
@@ -268,20 +273,10 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
             ViewCone cone;
             cone.half_angle_deg = segment.visibility.half_angle_deg;
             cone.range = segment.visibility.range;
-            Vec3 eye = Vec3::Zero(), gaze = Vec3::Zero();
-            bool tracked = true;
-            for (int n : numbers) {
-                auto sample = source.track(n);
-                if (!sample) {
-                    tracked = false;
-                    break;
-                }
-                eye += sample->eye;
-                gaze += sample->gaze;
-            }
-            if (tracked && gaze.norm() > 1e-9) {
-                cone.eye = eye / double(numbers.size());
-                cone.gaze = gaze.normalized();
+            auto mean = mean_track(source, numbers);
+            if (mean && mean->gaze.norm() > 1e-9) {
+                cone.eye = mean->eye;
+                cone.gaze = mean->gaze.normalized();
             } else {
                 // No track: eyes 10 cm below the top of the body above the root, looking along the facing.
                 Box3 bounds = summarise(self.whole).bounds;
