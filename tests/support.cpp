@@ -2,8 +2,10 @@
 
 #include <array>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <random>
+#include <sstream>
 
 namespace amhv::test {
 
@@ -42,6 +44,20 @@ CommandResult run_amhv(const std::string& arguments) {
     int status = pclose(pipe.release());
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     return result;
+}
+
+void write_obj(const std::filesystem::path& path, const TriangleMesh& mesh) {
+    std::ofstream out(path);
+    out.precision(9);
+    for (const auto& v : mesh.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
+    for (const auto& t : mesh.triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+}
+
+std::string read_text(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
 }
 
 }  // namespace amhv::test

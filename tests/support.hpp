@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/geometry.hpp"
 #include "gpu/context.hpp"
 
 namespace amhv::test {
@@ -26,6 +27,11 @@ private:
 };
 
 std::filesystem::path source_dir();
+
+// Writes `mesh` as an OBJ file (9 significant digits).
+void write_obj(const std::filesystem::path& path, const TriangleMesh& mesh);
+// The whole file as bytes.
+std::string read_text(const std::filesystem::path& path);
 
 struct CommandResult {
     int exit_code;

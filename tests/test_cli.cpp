@@ -23,18 +23,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write_obj(const fs::path& path, const TriangleMesh& mesh) {
-    std::ofstream out(path);
-    for (const auto& v : mesh.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
-    for (const auto& t : mesh.triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-}
-
-std::string read_text(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::read_text;
+using test::write_obj;
 
 // A ball rolling over 12 frames, written as frame_0000.obj ... with y up in centimetres.
 fs::path make_sequence(const fs::path& folder, int frames = 12) {

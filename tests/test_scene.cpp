@@ -22,19 +22,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write_obj(const fs::path& path, const TriangleMesh& mesh) {
-    std::ofstream out(path);
-    out.precision(9);
-    for (const auto& v : mesh.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
-    for (const auto& t : mesh.triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-}
-
-std::string read_text(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::read_text;
+using test::write_obj;
 
 // Two small performers on disk: A (a body and a separate fist mesh that moves forward, a view
 // track) and B (a body with a hand, labelled per vertex), 10 frames each.

@@ -153,12 +153,8 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     if (meshes) o.meshes = resolve(t.file(), *meshes);
     if (bvh) o.bvh = resolve(t.file(), *bvh);
     const std::string default_unit = bvh ? "0.0564444" : "m", default_up = bvh ? "y" : "z";
-    try {
-        o.units.metres_per_unit = parse_unit(t.string("unit").value_or(default_unit), t.where("unit", t.get("unit")));
-        o.units.up = parse_up_axis(t.string("up").value_or(default_up), t.where("up", t.get("up")));
-    } catch (const Error&) {
-        throw;
-    }
+    o.units.metres_per_unit = parse_unit(t.string("unit").value_or(default_unit), t.where("unit", t.get("unit")));
+    o.units.up = parse_up_axis(t.string("up").value_or(default_up), t.where("up", t.get("up")));
     if (auto labels = t.string("labels")) {
         if (bvh) t.error("labels", t.get("labels"), "a BVH body already has part labels (head, torso, left_hand, ...)");
         o.labels = resolve(t.file(), *labels);
