@@ -3,18 +3,15 @@
 #include <fstream>
 #include <iostream>
 
-#include <unistd.h>
-
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "cli/backend.hpp"
 #include "cli/commands.hpp"
+#include "cli/sweep_stage.hpp"
 #include "core/error.hpp"
 #include "io/output_dir.hpp"
-#include "io/sweep_output.hpp"
 #include "scene/scene.hpp"
-#include "scene/segment.hpp"
 
 namespace amhv::cli {
 
@@ -30,30 +27,6 @@ struct SweepArguments {
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
-
-// A one-line progress bar on stderr, only when stderr is a terminal.
-class ProgressBar {
-public:
-    explicit ProgressBar(std::string label) : label_(std::move(label)), enabled_(isatty(STDERR_FILENO) == 1) {}
-    ~ProgressBar() {
-        if (enabled_ && drawn_) std::cerr << "\r\033[K" << std::flush;
-    }
-    void operator()(int done, int total) {
-        if (!enabled_ || total <= 0) return;
-        const int width = 30, filled = done * width / total;
-        std::cerr << fmt::format("\r{} [{}{}] {}/{} angles", label_, std::string(std::size_t(filled), '#'),
-                                 std::string(std::size_t(width - filled), '.'), done, total)
-                  << std::flush;
-        drawn_ = true;
-    }
-
-private:
-    std::string label_;
-    bool enabled_;
-    bool drawn_ = false;
-};
-
-nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 void run_check(const std::string& file) {
     Scene scene = load_scene(file);
@@ -85,68 +58,11 @@ void run_sweep(const SweepArguments& args) {
                           {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
                           {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
                                        {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
-    json["segments"] = nlohmann::json::array();
+    SweepStage stage = run_sweep_stage(scene, a, b, voxeliser, sweeper, out.dir(), {args.segment, args.maps, args.timings});
+    json["segments"] = stage.segments;
     std::vector<int> empty_segments;
-    for (const KeySegment& segment : scene.segments) {
-        if (args.segment && segment.index != args.segment) continue;
-        nlohmann::ordered_json timings;
-        auto t0 = std::chrono::steady_clock::now();
-        SegmentBuild build = build_segment(scene, segment, a, b, voxeliser);
-        timings["mhv"] = seconds_since(t0);
-        const SweepProblem& problem = build.problem;
-
-        t0 = std::chrono::steady_clock::now();
-        ProgressBar bar(fmt::format("segment {} ({})", segment.index, segment.type.name()));
-        sweeper.progress = [&bar](int done, int total) { bar(done, total); };
-        SweepResult result = sweeper.sweep(problem);
-        sweeper.progress = nullptr;
-        timings["sweep"] = seconds_since(t0);
-
-        t0 = std::chrono::steady_clock::now();
-        const auto dir = out.dir() / fmt::format("segment_{}", segment.index);
-        std::filesystem::create_directories(dir);
-        auto list = solutions(problem, result);
-        write_solutions_csv(dir / "solutions.csv", list);
-        int maps = args.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0;
-        timings["output"] = seconds_since(t0);
-
-        nlohmann::ordered_json s;
-        s["index"] = segment.index;
-        s["type"] = segment.type.name();
-        s["frames_a"] = {segment.a[0], segment.a[1]};
-        s["frames_b"] = {segment.b[0], segment.b[1]};
-        s["normalised_frames"] = problem.frames();
-        s["poses_tested"] = problem.range.size();
-        s["solutions"] = result.solutions;
-        s["rejected"] = {{"contact", result.rejected[0]}, {"dictionary", result.rejected[1]}, {"fidelity", result.rejected[2]},
-                         {"visibility", result.rejected[3]}};
-        s["range"] = {{"x_m", {problem.range.i_first * problem.voxel, problem.range.i_last * problem.voxel}},
-                      {"y_m", {problem.range.j_first * problem.voxel, problem.range.j_last * problem.voxel}},
-                      {"angles", problem.range.angles}};
-        s["root_m"] = {{"A", vec3(problem.a.root)}, {"B", vec3(problem.b.root)}};
-        s["facing"] = {{"A", {problem.a.facing.x(), problem.a.facing.y()}}, {"B", {problem.b.facing.x(), problem.b.facing.y()}}};
-        s["tolerance"] = segment.tolerance;
-        s["visibility"] = {{"enabled", segment.visibility.enabled}, {"half_angle_deg", segment.visibility.half_angle_deg},
-                           {"range_m", segment.visibility.range}};
-        s["interest"] = {{"A", segment.interest_a.describe()}, {"B", segment.interest_b.describe()}};
-        s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
-        s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
-                      {"feasibility", args.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
-                      {"feasibility_files", maps}};
-        if (args.timings) s["timings_s"] = timings;
-        json["segments"].push_back(s);
-
-        const std::string counts = fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", result.rejected[0], result.rejected[1],
-                                               result.rejected[2], result.rejected[3]);
-        if (result.solutions == 0) {
-            empty_segments.push_back(segment.index);
-            std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}\n", segment.index, segment.type.name(),
-                                     problem.range.size(), counts);
-        } else {
-            std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}\n", segment.index,
-                                     segment.type.name(), result.solutions, problem.range.size(), timings["sweep"].get<double>(), counts);
-        }
-    }
+    for (const KeySweep& k : stage.sweeps)
+        if (k.solutions.empty()) empty_segments.push_back(k.index);
     if (args.timings) json["timings_s"] = {{"total", seconds_since(start)}};
     std::ofstream(out.dir() / "result.json") << json.dump(2) << '\n';
     out.commit();

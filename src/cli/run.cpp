@@ -26,6 +26,7 @@ int run(int argc, char** argv) {
     add_devices_command(app);
     add_mhv_command(app);
     add_scene_commands(app);
+    add_edit_command(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

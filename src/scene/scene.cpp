@@ -187,6 +187,14 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
         o.frame_last = frames.back().number;
     }
     if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
+    // The frames the edit covers (default: all there are); key segments must lie inside.
+    if (auto range = t.frame_range("frames")) {
+        if ((*range)[0] < o.frame_first || (*range)[1] > o.frame_last)
+            t.error("frames", t.get("frames"), "frames {}..{} are beyond the {} frames {}..{}", (*range)[0], (*range)[1], bvh ? "BVH's" : "sequence's",
+                    o.frame_first, o.frame_last);
+        o.frame_first = (*range)[0];
+        o.frame_last = (*range)[1];
+    }
     t.finish();
     return o;
 }

@@ -1,0 +1,132 @@
+// `amhv edit`: the whole pipeline, from a scene file to the edited two-person scene.
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/backend.hpp"
+#include "cli/commands.hpp"
+#include "cli/sweep_stage.hpp"
+#include "core/error.hpp"
+#include "edit/edit.hpp"
+#include "io/edit_output.hpp"
+#include "io/output_dir.hpp"
+
+namespace amhv::cli {
+
+namespace {
+
+struct EditArguments {
+    std::string scene, out, backend = "vulkan", from_sweep;
+    int device = -1;
+    bool allow_empty = false, frames = true, maps = false, timings = true;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double degrees(double radians) { return radians * 180 / std::numbers::pi; }
+
+nlohmann::ordered_json solution_json(const Solution& s) {
+    return {{"x", s.x}, {"y", s.y}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
+}
+
+void run_edit(const EditArguments& args) {
+    const auto start = std::chrono::steady_clock::now();
+    Scene scene = load_scene(args.scene);
+    Backend backend(args.backend, args.device);
+    ObjectSource a(scene.a), b(scene.b);
+    StagedOutput out(args.out);
+
+    nlohmann::ordered_json json;
+    json["program"] = std::string("amhv ") + AMHV_VERSION;
+    json["scene"] = scene.file.string();
+    json["backend"] = args.backend;
+    json["device"] = backend.device();
+    const Weights& w = scene.weights;
+    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
+                          {"angle_step_deg", scene.sampling.angle_step_deg},
+                          {"angles", scene.sampling.angles()},
+                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
+                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
+                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+    json["from_sweep"] = args.from_sweep.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.from_sweep);
+
+    // aMHVs and sweep (or the groups of an earlier sweep).
+    SweepStage stage = args.from_sweep.empty()
+                           ? run_sweep_stage(scene, a, b, backend.voxeliser(), backend.sweeper(), out.dir(), {0, args.maps, args.timings})
+                           : read_sweep_stage(args.from_sweep, scene);
+
+    EditOptions options;
+    options.allow_empty = args.allow_empty;
+    EditResult edit = edit_scene(scene, stage.sweeps, a, b, backend.voxeliser(), options);
+
+    auto t0 = std::chrono::steady_clock::now();
+    write_transforms_json(out.dir() / "transforms.json", scene, edit);
+    const int frame_files = args.frames ? write_scene_frames(out.dir() / "frames", edit, a, b) : 0;
+    write_paths_picture(out.dir() / "paths.svg", out.dir() / "paths.png", scene, edit);
+
+    json["segments"] = stage.segments;
+    for (std::size_t i = 0; i < edit.keys.size(); ++i) {
+        const KeyEdit& k = edit.keys[i];
+        auto& s = json["segments"][i];
+        s["chosen"] = solution_json(k.chosen);
+        s["chosen"]["captured_placement"] = k.captured;
+        s["edit"] = {{"a_rotation_deg", degrees(k.a_rotation_rad)},
+                     {"a_translation_m", {k.a_translation.x(), k.a_translation.y()}},
+                     {"root_a_m", {k.root_a.x(), k.root_a.y()}},
+                     {"root_b_m", {k.root_b.x(), k.root_b.y()}},
+                     {"yaw_a_deg", degrees(k.yaw_a)},
+                     {"yaw_b_deg", degrees(k.yaw_b)}};
+    }
+    json["dp"] = {{"cost", edit.choice.cost}, {"unary", edit.choice.unary}, {"pairwise", edit.choice.pairwise}};
+    nlohmann::ordered_json paths = nlohmann::ordered_json::array();
+    for (const PathReport& p : edit.paths)
+        paths.push_back({{"segment", fmt::format("transition {}", p.timeline_segment / 2)},
+                         {"object", p.object == 0 ? "A" : "B"},
+                         {"frames", p.frames},
+                         {"root_residual", p.root_cost},
+                         {"facing_residual", p.facing_cost},
+                         {"max_shift_m", p.max_shift_m}});
+    json["paths"] = paths;
+    json["output"] = {{"frames", edit.timeline.length()},
+                      {"transforms", "transforms.json"},
+                      {"meshes", args.frames ? nlohmann::json("frames/NNNN.ply") : nlohmann::json(nullptr)},
+                      {"mesh_files", frame_files},
+                      {"paths", {"paths.svg", "paths.png"}}};
+    const double output_seconds = seconds_since(t0) + stage.output_seconds;
+    if (args.timings)
+        json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
+                             {"path", edit.path_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
+    std::ofstream(out.dir() / "result.json") << json.dump(2) << '\n';
+    out.commit();
+
+    for (const KeyEdit& k : edit.keys)
+        std::cout << fmt::format("key segment {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
+                                 k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y, k.chosen.theta_deg, k.chosen.distance);
+    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}, paths.svg, paths.png, result.json)\n", out.target().string(),
+                             edit.timeline.length(), args.frames ? ", frames/NNNN.ply" : "");
+}
+
+}  // namespace
+
+void add_edit_command(CLI::App& app) {
+    auto args = std::make_shared<EditArguments>();
+    auto* edit = app.add_subcommand("edit", "Run the whole pipeline: aMHVs, sweep, one solution per key segment, transitional paths, the edited scene");
+    edit->add_option("scene", args->scene, "Scene file (TOML)")->required();
+    edit->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
+    edit->add_option("--backend", args->backend, "vulkan or cpu (the plain reference)")->capture_default_str();
+    edit->add_option("--device", args->device, "Vulkan device index (see `amhv devices`)");
+    edit->add_option("--from-sweep", args->from_sweep, "Reuse the solution groups of an earlier `amhv sweep` (or `amhv edit`) of this scene");
+    edit->add_flag("--allow-empty", args->allow_empty, "Keep B's captured placement in a key segment whose solution group is empty");
+    edit->add_flag("!--no-frames", args->frames, "Skip frames/NNNN.ply");
+    edit->add_flag("--maps", args->maps, "Also write each key segment's feasibility maps");
+    edit->add_flag("!--no-timings", args->timings, "Leave timings out of result.json (byte-identical reruns)");
+    edit->callback([args] { run_edit(*args); });
+}
+
+}  // namespace amhv::cli

@@ -1,0 +1,264 @@
+#include "edit/edit.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+#include "core/error.hpp"
+#include "optimise/path_opt.hpp"
+#include "sweep/pose_map.hpp"
+
+namespace amhv {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+double radians(double degrees) { return degrees * kPi / 180.0; }
+Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) { return Eigen::Rotation2Dd(angle) * v; }
+Eigen::Vector2d xy(const Vec3& v) { return {v.x(), v.y()}; }
+
+// The representative of `angle` (mod 2 pi) nearest to `reference`.
+double nearest_turn(double angle, double reference) { return angle - 2 * kPi * std::round((angle - reference) / (2 * kPi)); }
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Per output frame: the facing from the track's gaze on the floor, else the constant facing, else +x;
+// unwrapped along the output so consecutive frames never jump by a full turn.
+std::vector<double> frame_facings(const ObjectSource& object, const std::vector<int>& numbers) {
+    std::vector<double> out;
+    const double constant = radians(object.spec().facing_deg.value_or(0.0));
+    double previous = constant;
+    for (int number : numbers) {
+        double f = previous;
+        if (auto sample = object.track(number)) {
+            const Eigen::Vector2d g(sample->gaze.x(), sample->gaze.y());
+            if (g.norm() > 1e-6) f = std::atan2(g.y(), g.x());  // looking straight down: keep the last facing
+        } else if (out.empty()) {
+            f = constant;
+        }
+        f = out.empty() ? f : nearest_turn(f, out.back());
+        out.push_back(f);
+        previous = f;
+    }
+    return out;
+}
+
+}  // namespace
+
+Vec3 sweep_root(const Vec3& root, double voxel) {
+    const double scale = double(std::int64_t(1) << posemap::kPositionBits);
+    Vec3 out;
+    for (int a = 0; a < 3; ++a) out[a] = double(posemap::quantise_root(root[a] / voxel)) / scale * voxel;
+    return out;
+}
+
+std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {
+    // Frames are voxelised 32 at a time (one word of the mask) on a grid covering just those frames.
+    std::vector<Eigen::Vector2d> roots(numbers.size());
+    for (std::size_t first = 0; first < numbers.size(); first += 32) {
+        const std::size_t count = std::min<std::size_t>(32, numbers.size() - first);
+        std::vector<MeshFrame> merged(count);
+        std::vector<const MeshFrame*> pointers;
+        Box3 bounds;
+        for (std::size_t f = 0; f < count; ++f) {
+            const int number = numbers[first + f];
+            for (const BodyPart& part : object.frame_parts(number)) merged[f].mesh.append(part.mesh);
+            merged[f].source = fmt::format("object {} frame {}", object.spec().name, number);
+            bounds.extend(merged[f].mesh.bounds());
+            pointers.push_back(&merged[f]);
+        }
+        const VoxelGrid grid = grid_covering(bounds, voxel, fmt::format("object {} frames {}..{}", object.spec().name, numbers[first],
+                                                                         numbers[first + count - 1]));
+        const Amhv volume = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
+        std::vector<Eigen::Vector2d> sum(count, Eigen::Vector2d::Zero());
+        std::vector<std::size_t> occupied(count, 0);
+        for (int z = 0; z < grid.dims[2]; ++z)
+            for (int y = 0; y < grid.dims[1]; ++y)
+                for (int x = 0; x < grid.dims[0]; ++x) {
+                    std::uint32_t bits = volume.word(0, grid.index(x, y, z));
+                    if (!bits) continue;
+                    const Vec3 c = grid.centre(x, y, z);
+                    for (; bits; bits &= bits - 1) {
+                        const int f = std::countr_zero(bits);
+                        sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
+                        ++occupied[std::size_t(f)];
+                    }
+                }
+        for (std::size_t f = 0; f < count; ++f) {
+            if (occupied[f] == 0) fail(merged[f].source, "occupies no voxel of {} m: the root is undefined", voxel);
+            roots[first + f] = sum[f] / double(occupied[f]);
+        }
+    }
+    return roots;
+}
+
+EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
+                      const EditOptions& options) {
+    EditResult r;
+    r.timeline = make_timeline(scene);
+    const Timeline& timeline = r.timeline;
+    const int length = timeline.length();
+    if (sweeps.size() != scene.segments.size())
+        throw Error(fmt::format("{}: the edit needs the sweep of all {} key segments, got {}", scene.file.string(), scene.segments.size(), sweeps.size()));
+    const double h = scene.sampling.voxel;
+    const SceneObject* specs[2] = {&scene.a, &scene.b};
+    ObjectSource* sources[2] = {&a, &b};
+
+    // Per-frame roots and facings of every output frame (each source frame voxelised once).
+    auto t0 = std::chrono::steady_clock::now();
+    for (int o = 0; o < 2; ++o) {
+        const std::vector<int>& numbers = o == 0 ? timeline.frame_a : timeline.frame_b;
+        std::vector<int> unique = numbers;
+        std::sort(unique.begin(), unique.end());
+        unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+        const std::vector<Eigen::Vector2d> roots = frame_roots(*sources[o], unique, h, voxeliser);
+        const std::vector<double> facings = frame_facings(*sources[o], numbers);
+        const Placement& place = specs[o]->placement;
+        const double psi = radians(place.yaw_deg);
+        auto& frames = r.frames[std::size_t(o)];
+        frames.resize(std::size_t(length));
+        for (int k = 0; k < length; ++k) {
+            ObjectFrameEdit& f = frames[std::size_t(k)];
+            f.source = numbers[std::size_t(k)];
+            f.root = roots[std::size_t(std::lower_bound(unique.begin(), unique.end(), f.source) - unique.begin())];
+            f.facing = facings[std::size_t(k)];
+            f.original_root = rotate(psi, f.root) + Eigen::Vector2d(place.x, place.y);
+            f.original_facing = f.facing + psi;
+        }
+    }
+    r.roots_seconds = seconds_since(t0);
+
+    // One solution per key segment (METHOD.md section 7).
+    t0 = std::chrono::steady_clock::now();
+    const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
+    const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
+    ChainWeights weights;
+    weights.voxel = h;
+    weights.w_a = scene.weights.w_a;
+    weights.w_b = scene.weights.w_b;
+    weights.lambda = scene.weights.lambda;
+    weights.mu = scene.weights.mu;
+    weights.yaw_a = psi_a;
+    weights.yaw_b = psi_b;
+    weights.a_rotations_rad.clear();
+    for (double d : scene.weights.a_rotations_deg) weights.a_rotations_rad.push_back(radians(d));
+    const double step = radians(scene.sampling.angle_step_deg);
+    std::vector<ChainSegment> chain(sweeps.size());
+    std::vector<bool> captured(sweeps.size(), false);
+    for (std::size_t i = 0; i < sweeps.size(); ++i) {
+        const KeySweep& s = sweeps[i];
+        const KeySegment& key = scene.segments[i];
+        ChainSegment& c = chain[i];
+        c.root_a = xy(sweep_root(s.root_a, h));
+        c.root_b = xy(sweep_root(s.root_b, h));
+        // Where the editor's placements put B relative to A, in A's capture axes.
+        c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
+        c.prior_theta_rad = psi_b - psi_a;
+        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
+        if (c.solutions.empty()) {
+            const std::string counts = fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", s.rejected[0], s.rejected[1],
+                                                   s.rejected[2], s.rejected[3]);
+            if (!options.allow_empty)
+                throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
+                                        "change its type, parts or visibility, or pass --allow-empty to keep B's captured placement there",
+                                        scene.file.string(), key.index, key.type.name(), s.poses_tested, counts));
+            // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
+            captured[i] = true;
+            c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)),
+                                   std::round(c.prior_theta_rad / step) * step});
+        }
+    }
+    r.choice = solve_chain(chain, weights);
+    const std::vector<Eigen::Vector2d> steps = a_translation_steps(chain, weights, r.choice);
+    r.dp_seconds = seconds_since(t0);
+
+    // The rigid move of each key segment pair.
+    t0 = std::chrono::steady_clock::now();
+    Eigen::Vector2d t = Eigen::Vector2d::Zero();
+    for (std::size_t i = 0; i < chain.size(); ++i) {
+        const int j = r.choice.solution[i];
+        const ChainSolution& sol = chain[i].solutions[std::size_t(j)];
+        KeyEdit k;
+        k.index = scene.segments[i].index;
+        k.captured = captured[i];
+        k.solution = captured[i] ? -1 : j;
+        k.a_rotation_rad = weights.a_rotations_rad[std::size_t(r.choice.rotation[i])];
+        if (i > 0) t += steps[i - 1];
+        k.a_translation = t;
+        const double previous_a = i == 0 ? psi_a : r.keys.back().yaw_a, previous_b = i == 0 ? psi_b : r.keys.back().yaw_b;
+        k.yaw_a = nearest_turn(psi_a + k.a_rotation_rad, previous_a);
+        k.yaw_b = nearest_turn(psi_a + k.a_rotation_rad + sol.theta_rad, previous_b);
+        const Eigen::Vector2d offset(sol.i * h, sol.j * h);
+        k.root_a = rotate(psi_a, chain[i].root_a) + place_a + t;
+        k.root_b = k.root_a + rotate(psi_a + k.a_rotation_rad, offset);
+        // The descriptors of the state used (for a captured placement, of its lattice pose).
+        k.chosen.i = sol.i;
+        k.chosen.j = sol.j;
+        k.chosen.x = offset.x();
+        k.chosen.y = offset.y();
+        k.chosen.theta_deg = sol.theta_rad * 180 / kPi;
+        k.chosen.k = int(std::lround(sol.theta_rad / step));
+        if (!captured[i]) k.chosen = sweeps[i].solutions[std::size_t(j)];
+        r.keys.push_back(k);
+        // Key frames: capture -> scene is R(yaw) (p - C_i) + C-bar_i.
+        const TimelineSegment& seg = *std::find_if(timeline.segments.begin(), timeline.segments.end(),
+                                                   [&](const TimelineSegment& s) { return s.key == k.index; });
+        for (int o = 0; o < 2; ++o) {
+            const double yaw = o == 0 ? k.yaw_a : k.yaw_b;
+            const Eigen::Vector2d translation = (o == 0 ? k.root_a : k.root_b) - rotate(yaw, o == 0 ? chain[i].root_a : chain[i].root_b);
+            for (int m = seg.first; m < seg.first + seg.length; ++m) {
+                ObjectFrameEdit& f = r.frames[std::size_t(o)][std::size_t(m)];
+                f.yaw = yaw;
+                f.translation = translation;
+                f.edited_root = rotate(yaw, f.root) + translation;
+                f.edited_facing = f.facing + yaw;
+            }
+        }
+    }
+
+    // Transitional segments (METHOD.md section 8), each object on its own.
+    PathWeights pw;
+    pw.delta = scene.weights.delta;
+    pw.lambda = scene.weights.lambda;
+    pw.alpha = scene.weights.alpha;
+    pw.v_c = scene.weights.v_c;
+    pw.r_c = scene.weights.r_c;
+    for (std::size_t s = 0; s < timeline.segments.size(); ++s) {
+        const TimelineSegment& seg = timeline.segments[s];
+        if (seg.key != 0 || seg.length == 0) continue;
+        const bool before = seg.first > 0, after = seg.first + seg.length < length;
+        const int first = seg.first - (before ? 1 : 0), last = seg.first + seg.length - 1 + (after ? 1 : 0);
+        for (int o = 0; o < 2; ++o) {
+            auto& frames = r.frames[std::size_t(o)];
+            PathProblem p;
+            for (int m = first; m <= last; ++m) {
+                p.roots.push_back(frames[std::size_t(m)].original_root);
+                p.facings.push_back(frames[std::size_t(m)].original_facing);
+            }
+            if (before) p.first = PathEnd{frames[std::size_t(first)].edited_root, frames[std::size_t(first)].edited_facing};
+            if (after) p.last = PathEnd{frames[std::size_t(last)].edited_root, frames[std::size_t(last)].edited_facing};
+            const PathSolution sol = optimise_path(p, pw);
+            PathReport report{int(s), o, seg.length, sol.root_cost, sol.facing_cost, 0};
+            for (int m = seg.first; m < seg.first + seg.length; ++m) {
+                ObjectFrameEdit& f = frames[std::size_t(m)];
+                f.edited_root = sol.roots[std::size_t(m - first)];
+                f.edited_facing = sol.facings[std::size_t(m - first)];
+                f.yaw = f.edited_facing - f.facing;
+                f.translation = f.edited_root - rotate(f.yaw, f.root);
+                report.max_shift_m = std::max(report.max_shift_m, (f.edited_root - f.original_root).norm());
+            }
+            r.paths.push_back(report);
+        }
+    }
+    r.path_seconds = seconds_since(t0);
+    return r;
+}
+
+}  // namespace amhv

@@ -1,0 +1,85 @@
+#pragma once
+// From the key segments' solution groups to the edited scene (METHOD.md sections 7, 8 and 10):
+// per-frame roots and facings, one solution per key segment by dynamic programming, the
+// transitional root paths by path optimisation, and the rigid transform of every output frame.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/voxelise.hpp"
+#include "edit/timeline.hpp"
+#include "optimise/chain_dp.hpp"
+#include "scene/segment.hpp"
+#include "sweep/problem.hpp"
+
+namespace amhv {
+
+// One key segment's sweep as the edit needs it: run now, or read back from a sweep folder.
+struct KeySweep {
+    int index = 0;                    // 1-based key segment
+    Vec3 root_a = Vec3::Zero(), root_b = Vec3::Zero();  // C^A, C^B in the capture frames
+    Eigen::Vector2d facing_a = Eigen::Vector2d::UnitX(), facing_b = Eigen::Vector2d::UnitX();
+    std::vector<Solution> solutions;  // the solution group, (theta, y, x) order
+    std::uint64_t poses_tested = 0;
+    std::array<std::uint64_t, 4> rejected{};  // contact, dictionary, fidelity, visibility
+};
+
+// One object at one output frame: capture -> scene is p -> R(yaw) p + translation (z kept).
+struct ObjectFrameEdit {
+    int source = 0;  // frame number in the object's sequence
+    Eigen::Vector2d root = Eigen::Vector2d::Zero();         // C_k: centroid of the frame's voxels, capture frame
+    double facing = 0;                                      // F_k, capture frame, radians (unwrapped along the output)
+    Eigen::Vector2d original_root = Eigen::Vector2d::Zero();  // C_k where the editor's placement puts it
+    double original_facing = 0;
+    Eigen::Vector2d edited_root = Eigen::Vector2d::Zero();  // C-bar_k in the scene
+    double edited_facing = 0;
+    double yaw = 0;
+    Eigen::Vector2d translation = Eigen::Vector2d::Zero();
+};
+
+struct KeyEdit {
+    int index = 0;
+    bool captured = false;   // --allow-empty: an empty group, B kept at its captured placement
+    Solution chosen;         // B's pose relative to A (METHOD.md section 6)
+    int solution = -1;       // row of the solution group (-1 when captured)
+    double a_rotation_rad = 0;  // delta_i
+    Eigen::Vector2d a_translation = Eigen::Vector2d::Zero();  // t_i (t_1 = 0)
+    double yaw_a = 0, yaw_b = 0;  // the rigid moves of the segment (capture -> scene rotations)
+    Eigen::Vector2d root_a = Eigen::Vector2d::Zero(), root_b = Eigen::Vector2d::Zero();  // edited C-bar^A_i, C-bar^B_i
+};
+
+struct PathReport {
+    int timeline_segment = 0;  // index into Timeline::segments
+    int object = 0;            // 0 = A, 1 = B
+    int frames = 0;            // free frames optimised
+    double root_cost = 0, facing_cost = 0;  // the objective at the optimum
+    double max_shift_m = 0;    // largest |C-bar_k - C_k| (original placement) over the segment
+};
+
+struct EditOptions {
+    bool allow_empty = false;  // keep B's captured placement where a group is empty
+};
+
+struct EditResult {
+    Timeline timeline;
+    std::array<std::vector<ObjectFrameEdit>, 2> frames;  // A, B per output frame
+    std::vector<KeyEdit> keys;
+    ChainChoice choice;  // solution index per key segment (captured placements included as their own state)
+    std::vector<PathReport> paths;
+    double roots_seconds = 0, dp_seconds = 0, path_seconds = 0;
+};
+
+// Roots (centroid of the voxels of edge `voxel`) of the given frames of `object`, by `voxeliser`.
+std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser);
+
+// The whole edit after the sweep. `sweeps` has one entry per key segment of `scene`, in order.
+// Throws amhv::Error naming the segment when a group is empty (unless options.allow_empty).
+EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
+                      const EditOptions& options);
+
+// The root as the sweep's pose mapping uses it (1/4096 voxel fixed point), in metres.
+Vec3 sweep_root(const Vec3& root, double voxel);
+
+}  // namespace amhv

@@ -1,0 +1,278 @@
+#include "io/edit_output.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <numbers>
+
+#include <cairo.h>
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "core/error.hpp"
+
+namespace amhv {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+const std::array<std::array<int, 3>, 2> kColour{{{230, 120, 40}, {40, 120, 230}}};
+
+double wrap_degrees(double degrees) {
+    double d = std::fmod(degrees, 360.0);
+    if (d > 180) d -= 360;
+    if (d <= -180) d += 360;
+    return d;
+}
+
+std::string segment_name(const TimelineSegment& s, int index) {
+    return s.key ? fmt::format("key {}", s.key) : fmt::format("transition {}", index / 2);
+}
+
+// ---- the paths picture: one list of shapes drawn into SVG text and into a cairo PNG ----
+
+struct Shape {
+    enum class Kind { Line, Circle, Text } kind = Kind::Line;
+    std::vector<Eigen::Vector2d> points;  // picture coordinates (pixels, y down)
+    std::array<int, 3> colour{0, 0, 0};
+    double width = 1, radius = 0, opacity = 1;
+    bool dashed = false;
+    std::string text;
+};
+
+void draw_svg(const fs::path& path, int w, int h, const std::vector<Shape>& shapes) {
+    std::ofstream out(path);
+    if (!out) fail(path.string(), "cannot write");
+    out << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" viewBox=\"0 0 {} {}\">\n", w, h, w, h);
+    out << fmt::format("<rect width=\"{}\" height=\"{}\" fill=\"white\"/>\n", w, h);
+    for (const Shape& s : shapes) {
+        const std::string rgb = fmt::format("rgb({},{},{})", s.colour[0], s.colour[1], s.colour[2]);
+        if (s.kind == Shape::Kind::Line) {
+            std::string points;
+            for (const auto& p : s.points) points += fmt::format("{}{:.2f},{:.2f}", points.empty() ? "" : " ", p.x(), p.y());
+            out << fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-opacity=\"{}\"{} "
+                               "stroke-linecap=\"round\" stroke-linejoin=\"round\"/>\n",
+                               points, rgb, s.width, s.opacity, s.dashed ? " stroke-dasharray=\"6 4\"" : "");
+        } else if (s.kind == Shape::Kind::Circle) {
+            out << fmt::format("<circle cx=\"{:.2f}\" cy=\"{:.2f}\" r=\"{}\" fill=\"{}\"/>\n", s.points[0].x(), s.points[0].y(), s.radius, rgb);
+        } else {
+            out << fmt::format("<text x=\"{:.2f}\" y=\"{:.2f}\" font-family=\"sans-serif\" font-size=\"14\" fill=\"{}\">{}</text>\n",
+                               s.points[0].x(), s.points[0].y(), rgb, s.text);
+        }
+    }
+    out << "</svg>\n";
+}
+
+void draw_png(const fs::path& path, int w, int h, const std::vector<Shape>& shapes) {
+    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, w, h);
+    cairo_t* cr = cairo_create(surface);
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+    cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+    for (const Shape& s : shapes) {
+        cairo_set_source_rgba(cr, s.colour[0] / 255.0, s.colour[1] / 255.0, s.colour[2] / 255.0, s.opacity);
+        if (s.kind == Shape::Kind::Line) {
+            const double dash[2] = {6, 4};
+            cairo_set_dash(cr, dash, s.dashed ? 2 : 0, 0);
+            cairo_set_line_width(cr, s.width);
+            for (std::size_t k = 0; k < s.points.size(); ++k)
+                (k ? cairo_line_to : cairo_move_to)(cr, s.points[k].x(), s.points[k].y());
+            cairo_stroke(cr);
+        } else if (s.kind == Shape::Kind::Circle) {
+            cairo_arc(cr, s.points[0].x(), s.points[0].y(), s.radius, 0, 2 * kPi);
+            cairo_fill(cr);
+        }  // text only in the SVG: PNG bytes must not depend on the fonts a machine has
+    }
+    cairo_destroy(cr);
+    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
+    cairo_surface_destroy(surface);
+    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+}
+
+}  // namespace
+
+void write_transforms_json(const fs::path& path, const Scene& scene, const EditResult& edit) {
+    nlohmann::ordered_json json;
+    json["program"] = std::string("amhv ") + AMHV_VERSION;
+    json["scene"] = scene.file.string();
+    json["convention"] = "scene point = R(yaw) * capture point + (x, y, 0): a turn about the vertical (z) axis, then a move on the floor; "
+                         "metres, z up, yaw in degrees counter-clockwise; matrix is the same map, row-major 4x4";
+    json["frames"] = edit.timeline.length();
+    json["objects"] = {{"A", scene.a.bvh.empty() ? scene.a.meshes : scene.a.bvh}, {"B", scene.b.bvh.empty() ? scene.b.meshes : scene.b.bvh}};
+    nlohmann::ordered_json segments = nlohmann::ordered_json::array();
+    for (std::size_t s = 0; s < edit.timeline.segments.size(); ++s) {
+        const TimelineSegment& seg = edit.timeline.segments[s];
+        segments.push_back({{"name", segment_name(seg, int(s))},
+                            {"output_frames", {seg.first, seg.first + seg.length - 1}},
+                            {"frames_a", {seg.a[0], seg.a[1]}},
+                            {"frames_b", {seg.b[0], seg.b[1]}}});
+    }
+    json["segments"] = segments;
+    nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+    for (int k = 0; k < edit.timeline.length(); ++k) {
+        nlohmann::ordered_json f;
+        f["frame"] = k;
+        f["segment"] = segment_name(edit.timeline.segments[std::size_t(edit.timeline.segment[std::size_t(k)])], edit.timeline.segment[std::size_t(k)]);
+        for (int o = 0; o < 2; ++o) {
+            const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
+            const double c = std::cos(e.yaw), s = std::sin(e.yaw);
+            f[o == 0 ? "A" : "B"] = {
+                {"source", e.source},
+                {"x", e.translation.x()},
+                {"y", e.translation.y()},
+                {"yaw_deg", wrap_degrees(e.yaw * 180 / kPi)},
+                {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, 0.0}, {0.0, 0.0, 0.0, 1.0}}},
+                {"root", {e.edited_root.x(), e.edited_root.y()}},
+                {"facing_deg", wrap_degrees(e.edited_facing * 180 / kPi)},
+            };
+        }
+        frames.push_back(f);
+    }
+    json["output"] = frames;
+    std::ofstream out(path);
+    if (!out) fail(path.string(), "cannot write");
+    out << json.dump(1) << '\n';
+}
+
+int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    // Written directly rather than through OpenMesh: its half-edge mesh drops non-manifold faces,
+    // and an edited frame must hold exactly the captured triangles.
+    fs::create_directories(folder);
+    ObjectSource* sources[2] = {&a, &b};
+    for (int k = 0; k < edit.timeline.length(); ++k) {
+        std::array<TriangleMesh, 2> meshes;
+        for (int o = 0; o < 2; ++o) {
+            const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
+            for (const BodyPart& part : sources[o]->frame_parts(e.source)) meshes[std::size_t(o)].append(part.mesh);
+            const Eigen::Rotation2Dd rotation(e.yaw);
+            for (Vec3& v : meshes[std::size_t(o)].vertices) {
+                const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
+                v = Vec3(p.x(), p.y(), v.z());
+            }
+        }
+        const std::size_t va = meshes[0].vertices.size(), vb = meshes[1].vertices.size();
+        const std::size_t fa = meshes[0].triangles.size(), fb = meshes[1].triangles.size();
+        const fs::path path = folder / fmt::format("{:04d}.ply", k);
+        std::ofstream out(path, std::ios::binary);
+        if (!out) fail(path.string(), "cannot write");
+        out << "ply\nformat binary_little_endian 1.0\n"
+            << fmt::format("comment amhv edit output frame {}: A = source frame {}, B = source frame {}\n", k,
+                           edit.frames[0][std::size_t(k)].source, edit.frames[1][std::size_t(k)].source)
+            << fmt::format("comment object A: vertices 0..{}, faces 0..{}, colour 230 120 40\n", va - 1, fa - 1)
+            << fmt::format("comment object B: vertices {}..{}, faces {}..{}, colour 40 120 230\n", va, va + vb - 1, fa, fa + fb - 1)
+            << fmt::format("element vertex {}\n", va + vb)
+            << "property float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+            << fmt::format("element face {}\n", fa + fb) << "property list uchar int vertex_indices\nend_header\n";
+        std::vector<char> bytes;
+        auto put = [&bytes](const auto& value) {
+            const char* p = reinterpret_cast<const char*>(&value);
+            bytes.insert(bytes.end(), p, p + sizeof(value));
+        };
+        static_assert(std::endian::native == std::endian::little, "the PLY writer assumes a little-endian host");
+        for (int o = 0; o < 2; ++o)
+            for (const Vec3& v : meshes[std::size_t(o)].vertices) {
+                put(float(v.x()));
+                put(float(v.y()));
+                put(float(v.z()));
+                for (int c = 0; c < 3; ++c) put(std::uint8_t(kColour[std::size_t(o)][std::size_t(c)]));
+            }
+        for (int o = 0; o < 2; ++o)
+            for (const auto& t : meshes[std::size_t(o)].triangles) {
+                put(std::uint8_t(3));
+                for (std::uint32_t i : t) put(std::int32_t(i + (o == 1 ? va : 0)));
+            }
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        if (!out) fail(path.string(), "write failed (disk full?)");
+    }
+    return edit.timeline.length();
+}
+
+void write_paths_picture(const fs::path& svg, const fs::path& png, const Scene& scene, const EditResult& edit) {
+    (void)scene;
+    const int length = edit.timeline.length();
+    Eigen::AlignedBox2d world;
+    for (const auto& frames : edit.frames)
+        for (const ObjectFrameEdit& f : frames) {
+            world.extend(f.original_root);
+            world.extend(f.edited_root);
+        }
+    world.min() -= Eigen::Vector2d::Constant(0.5);
+    world.max() += Eigen::Vector2d::Constant(0.5);
+    const int width = 1000, margin = 40, max_height = 1400;
+    const double s = std::min((width - 2 * margin) / std::max(world.sizes().x(), 1e-6), (max_height - 2 * margin - 30) / std::max(world.sizes().y(), 1e-6));
+    const int height = int(std::ceil(world.sizes().y() * s)) + 2 * margin + 30;
+    auto pixel = [&](const Eigen::Vector2d& p) {
+        return Eigen::Vector2d(margin + (p.x() - world.min().x()) * s, height - margin - (p.y() - world.min().y()) * s);
+    };
+    std::vector<Shape> shapes;
+    const char* names[2] = {"A", "B"};
+    for (int o = 0; o < 2; ++o) {
+        const auto& frames = edit.frames[std::size_t(o)];
+        const auto colour = kColour[std::size_t(o)];
+        for (int edited = 0; edited < 2; ++edited) {
+            Shape line;
+            line.colour = colour;
+            line.width = edited ? 2 : 1.5;
+            line.dashed = !edited;
+            line.opacity = edited ? 1 : 0.6;
+            for (const auto& f : frames) line.points.push_back(pixel(edited ? f.edited_root : f.original_root));
+            shapes.push_back(line);
+            // Facing ticks every 10 output frames: 14 pixels along the facing.
+            for (int k = 0; k < length; k += 10) {
+                const auto& f = frames[std::size_t(k)];
+                const Eigen::Vector2d root = edited ? f.edited_root : f.original_root;
+                const double facing = edited ? f.edited_facing : f.original_facing;
+                Shape tick;
+                tick.colour = colour;
+                tick.width = 1;
+                tick.opacity = line.opacity;
+                tick.points = {pixel(root), pixel(root) + 14 * Eigen::Vector2d(std::cos(facing), -std::sin(facing))};
+                shapes.push_back(tick);
+            }
+        }
+        // Key segments: thick on the edited path, numbered at their first frame.
+        for (const TimelineSegment& seg : edit.timeline.segments) {
+            if (!seg.key || seg.length == 0) continue;
+            Shape thick;
+            thick.colour = colour;
+            thick.width = 6;
+            for (int m = seg.first; m < seg.first + seg.length; ++m) thick.points.push_back(pixel(frames[std::size_t(m)].edited_root));
+            if (thick.points.size() == 1) thick.points.push_back(thick.points.front());
+            shapes.push_back(thick);
+            Shape dot;
+            dot.kind = Shape::Kind::Circle;
+            dot.colour = colour;
+            dot.radius = 4;
+            dot.points = {pixel(frames[std::size_t(seg.first)].edited_root)};
+            shapes.push_back(dot);
+            Shape label;
+            label.kind = Shape::Kind::Text;
+            label.colour = colour;
+            label.points = {dot.points[0] + Eigen::Vector2d(6, -6)};
+            label.text = fmt::format("{}{}", names[o], seg.key);
+            shapes.push_back(label);
+        }
+    }
+    // Legend and a 1 m scale bar.
+    Shape legend;
+    legend.kind = Shape::Kind::Text;
+    legend.points = {Eigen::Vector2d(margin, 22)};
+    legend.text = "top view, metres: A orange, B blue; dashed = captured (at the editor's placement), solid = edited; thick = key segments";
+    shapes.push_back(legend);
+    Shape bar;
+    bar.width = 2;
+    bar.points = {Eigen::Vector2d(width - margin - s, height - 15), Eigen::Vector2d(width - margin, height - 15)};
+    shapes.push_back(bar);
+    Shape bar_label;
+    bar_label.kind = Shape::Kind::Text;
+    bar_label.points = {Eigen::Vector2d(width - margin - s, height - 20)};
+    bar_label.text = "1 m";
+    shapes.push_back(bar_label);
+    draw_svg(svg, width, height, shapes);
+    draw_png(png, width, height, shapes);
+}
+
+}  // namespace amhv

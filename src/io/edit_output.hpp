@@ -1,0 +1,26 @@
+#pragma once
+// Files of the edited scene (METHOD.md section 10): per-frame transforms, the transformed meshes of
+// every output frame, and a top view of the original and edited root paths.
+#include <filesystem>
+
+#include "edit/edit.hpp"
+#include "scene/scene.hpp"
+#include "scene/segment.hpp"
+
+namespace amhv {
+
+// transforms.json: for every output frame and object, the source frame and capture -> scene as
+// x, y, yaw and as a row-major 4x4 matrix.
+void write_transforms_json(const std::filesystem::path& path, const Scene& scene, const EditResult& edit);
+
+// `folder`/NNNN.ply, one binary PLY per output frame holding both objects' transformed meshes: A's
+// vertices first, coloured orange (230, 120, 40), then B's, blue (40, 120, 230); the header's
+// comments give each object's vertex and face ranges. Returns the number of files.
+int write_scene_frames(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+
+// paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
+// placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),
+// facings as ticks every 10 output frames. The PNG is the same drawing without text.
+void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const Scene& scene, const EditResult& edit);
+
+}  // namespace amhv

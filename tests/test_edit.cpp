@@ -1,0 +1,259 @@
+// `amhv edit` end to end (METHOD.md sections 7, 8 and 10) on two small separately captured
+// performers: the timeline, the chosen pose reproduced by the per-frame transforms, the meshes,
+// reuse of a sweep, both backends, byte-identical reruns, and the empty-group rules.
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "body/shapes.hpp"
+#include "edit/timeline.hpp"
+#include "scene/scene.hpp"
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+namespace fs = std::filesystem;
+using test::read_text;
+using test::write_obj;
+
+// A's root walks along +x, stands still over frames 15..24 while reaching forward with a hand,
+// then walks on (40 frames). B was captured elsewhere and later (45 frames): it walks along +y and
+// stands over frames 20..29 reaching along +y. B's capture frame is placed 5 m away.
+struct EditFixture {
+    test::TempDir dir;
+    fs::path scene;
+
+    static double walk(int f, int stop_first, int stop_last) {
+        const double step = 0.02;
+        if (f < stop_first) return step * f;
+        if (f <= stop_last) return step * stop_first;
+        return step * (stop_first + f - stop_last);
+    }
+
+    explicit EditFixture(const std::string& type = "0&0a", const std::string& extra = "") {
+        const fs::path root = dir.path();
+        for (const char* sub : {"a", "a_labels", "b", "b_labels"}) fs::create_directories(root / sub);
+        auto body = [](const Eigen::Vector2d& at, const Eigen::Vector2d& forward, const fs::path& mesh, const fs::path& labels) {
+            TriangleMesh m = shapes::capsule({at.x(), at.y(), 0.4}, {at.x(), at.y(), 1.4}, 0.2, 3, 10);
+            const std::size_t body_vertices = m.vertices.size();
+            const Eigen::Vector2d hand = at + 0.3 * forward;
+            m.append(shapes::sphere({hand.x(), hand.y(), 1.2}, 0.06, 6, 10));
+            write_obj(mesh, m);
+            std::ofstream out(labels);
+            for (std::size_t v = 0; v < m.vertices.size(); ++v) out << (v < body_vertices ? "body\n" : "hand\n");
+        };
+        for (int f = 0; f < 40; ++f)
+            body({walk(f, 15, 24), 0}, {1, 0}, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
+        for (int f = 0; f < 45; ++f)
+            body({0, walk(f, 20, 29)}, {0, 1}, root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f));
+        scene = root / "scene.toml";
+        std::ofstream(scene) << fmt::format(R"([sampling]
+voxel = 0.03
+angle_step_deg = 30
+
+[objects.A]
+meshes = "a/%04d.obj"
+labels = "a_labels/%04d.txt"
+facing_deg = 0
+
+[objects.B]
+meshes = "b/%04d.obj"
+labels = "b_labels/%04d.txt"
+facing_deg = 90
+placement = {{ x = 5.0, y = 1.0, yaw_deg = 0.0 }}
+
+[[segments]]
+a = [15, 24]
+b = [20, 29]
+type = "{}"
+interest = {{ A = {{ parts = ["hand"] }}, B = {{ parts = ["hand"] }} }}
+fidelity = {{ A = {{ parts = ["body"] }}, B = {{ parts = ["body"] }} }}
+{}
+)",
+                                            type, extra);
+    }
+    std::string quoted() const { return fmt::format("'{}'", scene.string()); }
+};
+
+void replace_once(std::string& text, const std::string& from, const std::string& to) {
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+}
+
+nlohmann::json read_json(const fs::path& p) { return nlohmann::json::parse(read_text(p)); }
+
+Eigen::Vector2d apply(const nlohmann::json& t, const Eigen::Vector2d& p) {
+    const double yaw = t.at("yaw_deg").get<double>() * std::numbers::pi / 180;
+    return Eigen::Rotation2Dd(yaw) * p + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
+}
+
+TEST(Edit, TimelineNormalisesEveryPairOfSegments) {
+    EditFixture fixture;
+    const Timeline t = make_timeline(load_scene(fixture.scene));
+    ASSERT_EQ(t.segments.size(), 3u);
+    EXPECT_EQ(t.segments[0].length, 15);  // A 0..14 (15), B 0..19 (20)
+    EXPECT_EQ(t.segments[1].length, 10);
+    EXPECT_EQ(t.segments[2].length, 15);  // A 25..39 (15), B 30..44 (15)
+    EXPECT_EQ(t.length(), 40);
+    EXPECT_EQ(t.frame_b[1], 1);   // floor(1 * 20 / 15)
+    EXPECT_EQ(t.frame_b[14], 18);  // floor(14 * 20 / 15)
+    EXPECT_EQ(t.frame_a[15], 15);
+    EXPECT_EQ(t.frame_b[15], 20);
+    EXPECT_EQ(t.frame_a[39], 39);
+    EXPECT_EQ(t.frame_b[39], 44);
+}
+
+TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
+    EditFixture fixture;
+    const fs::path out = fixture.dir.path() / "edit";
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_NE(run.output.find("key segment 1: chosen"), std::string::npos) << run.output;
+    for (const char* f : {"result.json", "transforms.json", "paths.svg", "paths.png", "segment_1/solutions.csv", "frames/0000.ply", "frames/0039.ply"})
+        EXPECT_TRUE(fs::exists(out / f)) << f;
+    EXPECT_FALSE(fs::exists(out / "frames/0040.ply"));
+
+    const auto result = read_json(out / "result.json");
+    const auto transforms = read_json(out / "transforms.json");
+    const auto& seg = result.at("segments").at(0);
+    ASSERT_GT(seg.at("solutions").get<int>(), 0);
+    const auto& chosen = seg.at("chosen");
+    // The chosen pose is one row of the solution group.
+    const std::string row = fmt::format("{:.6f},{:.6f},{:.6f},", chosen.at("x").get<double>(), chosen.at("y").get<double>(), chosen.at("theta_deg").get<double>());
+    EXPECT_NE(read_text(out / "segment_1/solutions.csv").find(fmt::format("\n{}", row)), std::string::npos) << row;
+    ASSERT_EQ(transforms.at("frames").get<int>(), 40);
+    ASSERT_EQ(transforms.at("output").size(), 40u);
+
+    // Over the key segment, A^-1 B is the sweep's pose: p -> R(theta) (p - C^B) + C^A + (x, y).
+    const auto ra = seg.at("root_m").at("A"), rb = seg.at("root_m").at("B");
+    const Eigen::Vector2d ca(ra[0].get<double>(), ra[1].get<double>()), cb(rb[0].get<double>(), rb[1].get<double>());
+    const double theta = chosen.at("theta_deg").get<double>() * std::numbers::pi / 180;
+    const Eigen::Vector2d offset(chosen.at("x").get<double>(), chosen.at("y").get<double>());
+    for (int k = 15; k < 25; ++k) {
+        const auto& frame = transforms.at("output").at(std::size_t(k));
+        EXPECT_EQ(frame.at("segment").get<std::string>(), "key 1");
+        EXPECT_EQ(frame.at("A").at("source").get<int>(), k);
+        EXPECT_EQ(frame.at("B").at("source").get<int>(), k + 5);
+        for (const Eigen::Vector2d& p : {Eigen::Vector2d(0.1, 0.7), Eigen::Vector2d(-1.3, 0.2)}) {
+            const Eigen::Vector2d in_scene = apply(frame.at("B"), p);
+            const double yaw_a = frame.at("A").at("yaw_deg").get<double>() * std::numbers::pi / 180;
+            const Eigen::Vector2d in_a = Eigen::Rotation2Dd(-yaw_a) * (in_scene - Eigen::Vector2d(frame.at("A").at("x").get<double>(),
+                                                                                                  frame.at("A").at("y").get<double>()));
+            const Eigen::Vector2d expected = Eigen::Rotation2Dd(theta) * (p - cb) + ca + offset;
+            EXPECT_NEAR((in_a - expected).norm(), 0, 1e-5) << "frame " << k;  // roots as the sweep used them: 1/4096 voxel
+        }
+    }
+    // Transitional frames move smoothly: no jump between consecutive edited roots beyond walking speed.
+    for (const char* o : {"A", "B"})
+        for (int k = 1; k < 40; ++k) {
+            const auto& r0 = transforms.at("output").at(std::size_t(k - 1)).at(o).at("root");
+            const auto& r1 = transforms.at("output").at(std::size_t(k)).at(o).at("root");
+            EXPECT_LT(std::hypot(r1[0].get<double>() - r0[0].get<double>(), r1[1].get<double>() - r0[1].get<double>()), 0.08)
+                << o << " frame " << k;
+        }
+    EXPECT_EQ(result.at("paths").size(), 4u);  // two transitional segments, two objects
+    EXPECT_FALSE(result.contains("timings_s"));
+
+    // Frame 20's PLY: B's first vertex is B's source frame 25 vertex 0 moved by B's transform.
+    const std::string ply = read_text(out / "frames/0020.ply");
+    const std::size_t header_end = ply.find("end_header\n") + 11;
+    std::istringstream header(ply.substr(0, header_end));
+    std::string line;
+    std::size_t a_vertices = 0;
+    while (std::getline(header, line))
+        if (line.rfind("comment object B: vertices ", 0) == 0) a_vertices = std::stoul(line.substr(27));
+    ASSERT_GT(a_vertices, 0u);
+    std::ifstream obj(fixture.dir.path() / "b/0025.obj");
+    std::string tag;
+    double x, y, z;
+    while (obj >> tag && tag != "v") {}
+    obj >> x >> y >> z;
+    float stored[3];
+    std::memcpy(stored, ply.data() + header_end + a_vertices * 15, sizeof(stored));
+    const Eigen::Vector2d moved = apply(transforms.at("output").at(20).at("B"), {x, y});
+    EXPECT_NEAR(stored[0], moved.x(), 1e-5);
+    EXPECT_NEAR(stored[1], moved.y(), 1e-5);
+    EXPECT_NEAR(stored[2], z, 1e-5);
+}
+
+TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {
+    EditFixture fixture;
+    const fs::path root = fixture.dir.path();
+    ASSERT_EQ(test::run_amhv("sweep " + fixture.quoted() + " --no-maps --no-timings --out '" + (root / "sweep").string() + "'").exit_code, 0);
+    for (const std::string name : {"direct", "again", "cpu", "reused"}) {
+        std::string args = "edit " + fixture.quoted() + " --no-timings --no-frames --out '" + (root / name).string() + "'";
+        if (name == "cpu") args += " --backend cpu";
+        if (name == "reused") args += " --from-sweep '" + (root / "sweep").string() + "'";
+        auto run = test::run_amhv(args);
+        ASSERT_EQ(run.exit_code, 0) << name << ": " << run.output;
+    }
+    const std::string transforms = read_text(root / "direct/transforms.json");
+    for (const char* name : {"again", "cpu", "reused"}) EXPECT_EQ(read_text(root / name / "transforms.json"), transforms) << name;
+    EXPECT_EQ(read_text(root / "again/result.json"), read_text(root / "direct/result.json"));
+    EXPECT_EQ(read_text(root / "again/paths.png"), read_text(root / "direct/paths.png"));
+    EXPECT_EQ(read_text(root / "again/paths.svg"), read_text(root / "direct/paths.svg"));
+    EXPECT_FALSE(fs::exists(root / "direct/frames"));
+}
+
+TEST(Edit, FromSweepOfAnotherSceneIsRefused) {
+    EditFixture fixture;
+    EditFixture other("0&0a", "tolerance = 2");
+    const fs::path root = fixture.dir.path();
+    ASSERT_EQ(test::run_amhv("sweep " + other.quoted() + " --no-maps --out '" + (root / "sweep").string() + "'").exit_code, 0);
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "sweep").string() + "' --out '" + (root / "e").string() + "'");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.output.find("result.json: key segment 1 was swept with other"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(root / "e"));
+    run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "nothing").string() + "' --out '" + (root / "e").string() + "'");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.output.find("nothing/result.json: cannot open"), std::string::npos) << run.output;
+}
+
+TEST(Edit, AnEmptyGroupStopsTheEditUnlessAllowed) {
+    // An interest box where A has no voxel is an error of the scene, not an empty group.
+    EditFixture fixture("0&0a");
+    std::string text = read_text(fixture.scene);
+    replace_once(text, "A = { parts = [\"hand\"] }", "A = { box = { min = [-5.0, -5.0, 3.0], max = [5.0, 5.0, 3.2] } }");
+    std::ofstream(fixture.scene) << text;
+    const fs::path root = fixture.dir.path();
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + (root / "e").string() + "'");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.output.find("volume of interest is empty"), std::string::npos) << run.output;
+
+    // An impossible pair: the bodies must touch at every frame (interest) and never share a voxel
+    // (fidelity), so every pose in contact fails fidelity and the group is empty.
+    EditFixture clash("0&0a");
+    text = read_text(clash.scene);
+    replace_once(text, "interest = { A = { parts = [\"hand\"] }, B = { parts = [\"hand\"] } }",
+                 "interest = { A = { parts = [\"body\"] }, B = { parts = [\"body\"] } }");
+    std::ofstream(clash.scene) << text;
+    const fs::path croot = clash.dir.path();
+    run = test::run_amhv("edit " + clash.quoted() + " --out '" + (croot / "e").string() + "'");
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.output.find("key segment 1 (0&0a) has no solution"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("--allow-empty"), std::string::npos);
+    EXPECT_FALSE(fs::exists(croot / "e"));
+
+    run = test::run_amhv("edit " + clash.quoted() + " --allow-empty --no-frames --out '" + (croot / "e").string() + "'");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const auto result = read_json(croot / "e/result.json");
+    EXPECT_TRUE(result.at("segments").at(0).at("chosen").at("captured_placement").get<bool>());
+    // B keeps its captured placement (x 5, y 1, yaw 0), up to the lattice rounding of the pose.
+    const auto transforms = read_json(croot / "e/transforms.json");
+    const auto& b = transforms.at("output").at(20).at("B");
+    EXPECT_NEAR(b.at("x").get<double>(), 5.0, 0.03);
+    EXPECT_NEAR(b.at("y").get<double>(), 1.0, 0.03);
+    EXPECT_NEAR(b.at("yaw_deg").get<double>(), 0.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace amhv
