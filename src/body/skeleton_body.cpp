@@ -3,6 +3,7 @@
 #include "body/shapes.hpp"
 #include "core/error.hpp"
 
+#include <algorithm>
 #include <cctype>
 
 namespace amhv {
@@ -15,6 +16,7 @@ bool contains(const std::string& name, const char* word) { return name.find(word
 
 double bone_radius(const std::string& parent, const std::string& child) {
     // Bone named by the joint it starts at; ordered from specific to general.
+    if (contains(parent, "Sword") || contains(parent, "Prop")) return 0.02;  // a blade or a stick
     if (contains(child, "_end") && contains(parent, "Head")) return 0.10;  // skull
     if (contains(parent, "Thumb") || contains(parent, "Index") || contains(parent, "Finger")) return 0.022;
     if (contains(parent, "Hand")) return 0.035;
@@ -41,6 +43,8 @@ std::string body_part(const std::string& parent) {
         side = "left_";
     if (parent.rfind("Right", 0) == 0 || (parent.size() > 1 && parent[0] == 'R' && std::isupper(static_cast<unsigned char>(parent[1]))))
         side = "right_";
+    if (contains(parent, "Sword")) return "sword";
+    if (contains(parent, "Prop")) return "prop";
     if (contains(parent, "Head") || contains(parent, "Neck")) return "head";
     if (contains(parent, "Hand") || contains(parent, "Finger") || contains(parent, "Thumb") || contains(parent, "Index")) return side + "hand";
     if (contains(parent, "ForeArm")) return side + "forearm";
@@ -56,6 +60,18 @@ const std::vector<std::string>& body_part_names() {
     static const std::vector<std::string> names{"head", "torso", "left_upper_arm", "left_forearm", "left_hand", "right_upper_arm",
                                                 "right_forearm", "right_hand", "left_thigh", "left_shin", "left_foot",
                                                 "right_thigh", "right_shin", "right_foot"};
+    return names;
+}
+
+std::vector<std::string> body_part_names(const BvhMotion& motion) {
+    std::vector<std::string> present;
+    for (const BvhJoint& joint : motion.joints)
+        if (joint.parent >= 0) present.push_back(body_part(motion.joints[std::size_t(joint.parent)].name));
+    std::vector<std::string> names;
+    for (const std::string& n : body_part_names())
+        if (std::find(present.begin(), present.end(), n) != present.end()) names.push_back(n);
+    for (const char* prop : {"sword", "prop"})
+        if (std::find(present.begin(), present.end(), prop) != present.end()) names.push_back(prop);
     return names;
 }
 

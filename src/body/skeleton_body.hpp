@@ -18,9 +18,12 @@ struct SkeletonBodyOptions {
 };
 
 // The body part (head, torso, left_upper_arm, left_forearm, left_hand, ..., right_foot) of the bone
-// that starts at joint `parent`.
+// that starts at joint `parent`. A joint whose name contains "Sword" or "Prop" starts a hand-held
+// prop (part "sword" or "prop"): mocap exports rigid props as extra joints under a hand.
 std::string body_part(const std::string& parent);
 const std::vector<std::string>& body_part_names();
+// The parts a skeleton's bones give (body_part_names' order, props last).
+std::vector<std::string> body_part_names(const BvhMotion& motion);
 
 struct BodyPart {
     std::string name;
