@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "optimise/path_opt.hpp"
@@ -103,6 +104,33 @@ TEST(PathOpt, VelocityOnlyKeepsCentralVelocitiesWhereItCan) {
             moved[k].x() += e;
             EXPECT_GE(path_cost(p, w, moved, s.facings).first, optimum - 1e-15);
         }
+}
+
+TEST(PathOpt, ATurnedObjectKeepsWalkingTheWayItFaces) {
+    // With the edit's turn given, a segment with one fixed end is the captured walk moved rigidly
+    // (turned and shifted) onto that end, at zero cost; so is a segment whose two ends are moved by
+    // one rigid motion.
+    const double turn = 2.0;
+    PathProblem base = straight_walk(30, 0.04);
+    for (std::size_t k = 0; k < base.facings.size(); ++k) base.facings[k] = 0.1 + 0.01 * double(k);
+    const Eigen::Vector2d shift(3, -1);
+    auto rigid = [&](std::size_t k) { return Eigen::Vector2d(Eigen::Rotation2Dd(turn) * base.roots[k] + shift); };
+    for (int ends = 0; ends < 3; ++ends) {
+        PathProblem p = base;
+        p.turns.assign(p.roots.size(), turn);
+        if (ends != 2) p.first = PathEnd{rigid(0), p.facings.front() + turn};
+        if (ends != 1) p.last = PathEnd{rigid(p.roots.size() - 1), p.facings.back() + turn};
+        PathSolution s = optimise_path(p, PathWeights{});
+        for (std::size_t k = 0; k < p.roots.size(); ++k) {
+            EXPECT_NEAR((s.roots[k] - rigid(k)).norm(), 0, 1e-8) << ends << " " << k;
+            EXPECT_NEAR(s.facings[k], p.facings[k] + turn, 1e-8);
+        }
+        EXPECT_NEAR(s.root_cost, 0, 1e-14);
+        if (ends == 0) {  // without the turn (METHOD.md's world-frame velocities) the same two ends cost something
+            p.turns.clear();
+            EXPECT_GT(optimise_path(p, PathWeights{}).root_cost, 1e-6);
+        }
+    }
 }
 
 TEST(PathOpt, SpeedWeightsFollowTheLogisticFormula) {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCore>
 #include <Eigen/SparseQR>
@@ -22,22 +23,17 @@ double sigmoid_weight(double speed, double alpha, double threshold) {
 
 // One scalar channel (x, y or the facing) of the problem.
 struct Channel {
-    std::vector<double> original;             // captured values, every frame
+    std::vector<double> moved;                // the captured path moved rigidly onto the fixed ends (tie-break reference)
+    std::vector<double> acceleration_target;  // per frame 1 .. n-2: the captured second difference (after the turn)
+    std::vector<double> velocity_target;      // per frame 1 .. n-2: the captured central velocity (after the turn)
     std::optional<double> first, last;        // fixed edited values at the ends
     std::vector<double> velocity_weight;      // (1 - delta) w_k, frames 1 .. n-2
     double acceleration_weight = 0;           // delta
     double scale = 1;                         // lambda for the facing
 
-    int n() const { return int(original.size()); }
+    int n() const { return int(moved.size()); }
     bool fixed(int k) const { return (k == 0 && first) || (k == n() - 1 && last); }
     double fixed_value(int k) const { return k == 0 ? *first : *last; }
-    // The captured value moved by the boundary displacement(s), blended linearly.
-    double moved(int k) const {
-        const double d0 = first ? *first - original.front() : *last - original.back();
-        const double d1 = last ? *last - original.back() : d0;
-        const double t = n() > 1 ? double(k) / (n() - 1) : 0.0;
-        return original[std::size_t(k)] + d0 + (d1 - d0) * t;
-    }
 };
 
 struct Row {
@@ -50,13 +46,12 @@ struct Row {
 // Every residual row of the objective: acceleration and velocity at each frame with two neighbours.
 std::vector<Row> objective_rows(const Channel& c) {
     std::vector<Row> rows;
-    const auto& o = c.original;
     for (int k = 1; k + 1 < c.n(); ++k) {
         const std::size_t u = std::size_t(k);
         if (c.acceleration_weight > 0)
-            rows.push_back({std::sqrt(c.scale * c.acceleration_weight), {k - 1, k, k + 1}, {1, -2, 1}, o[u - 1] - 2 * o[u] + o[u + 1]});
+            rows.push_back({std::sqrt(c.scale * c.acceleration_weight), {k - 1, k, k + 1}, {1, -2, 1}, c.acceleration_target[u]});
         const double wv = c.velocity_weight[u];
-        if (wv > 0) rows.push_back({std::sqrt(c.scale * wv), {k - 1, k, k + 1}, {0.5, 0, -0.5}, (o[u - 1] - o[u + 1]) / 2});
+        if (wv > 0) rows.push_back({std::sqrt(c.scale * wv), {k - 1, k, k + 1}, {0.5, 0, -0.5}, c.velocity_target[u]});
     }
     return rows;
 }
@@ -80,7 +75,7 @@ std::vector<double> solve_sparse(const Channel& c) {
     for (int k = 0; k < n; ++k)
         if (!c.fixed(k)) column[std::size_t(k)] = free_count++;
     std::vector<double> z(static_cast<std::size_t>(n));
-    for (int k = 0; k < n; ++k) z[std::size_t(k)] = c.fixed(k) ? c.fixed_value(k) : c.moved(k);
+    for (int k = 0; k < n; ++k) z[std::size_t(k)] = c.fixed(k) ? c.fixed_value(k) : c.moved[std::size_t(k)];
     if (free_count == 0) return z;
 
     const std::vector<Row> rows = objective_rows(c);
@@ -103,7 +98,7 @@ std::vector<double> solve_sparse(const Channel& c) {
             for (int k = 0; k < n; ++k)
                 if (!c.fixed(k)) {
                     entries.emplace_back(r, column[std::size_t(k)], std::sqrt(kTieBreak));
-                    rhs[r++] = std::sqrt(kTieBreak) * c.moved(k);
+                    rhs[r++] = std::sqrt(kTieBreak) * c.moved[std::size_t(k)];
                 }
         Eigen::SparseMatrix<double> a(row_count, free_count);
         a.setFromTriplets(entries.begin(), entries.end());
@@ -134,7 +129,7 @@ std::vector<double> solve_dense(const Channel& c) {
         b[Eigen::Index(r)] = rows[r].weight * rows[r].target;
     }
     Eigen::VectorXd reference(n);
-    for (int k = 0; k < n; ++k) reference[k] = c.fixed(k) ? c.fixed_value(k) : c.moved(k);
+    for (int k = 0; k < n; ++k) reference[k] = c.fixed(k) ? c.fixed_value(k) : c.moved[std::size_t(k)];
     std::vector<int> free;
     for (int k = 0; k < n; ++k)
         if (!c.fixed(k)) free.push_back(k);
@@ -151,15 +146,44 @@ std::vector<double> solve_dense(const Channel& c) {
 std::array<Channel, 3> channels(const PathProblem& p, const PathWeights& w) {
     const std::size_t n = p.roots.size();
     if (n == 0 || p.facings.size() != n) throw Error("path optimisation: roots and facings must have the same, non-zero length");
+    if (!p.turns.empty() && p.turns.size() != n) throw Error("path optimisation: one turn per frame, or none");
     if (!p.first && !p.last) throw Error("path optimisation: a transitional segment needs at least one fixed end");
     if (!(w.delta >= 0 && w.delta <= 1)) throw Error("path optimisation: delta must lie in [0, 1]");
+    auto turn = [&](std::size_t k) { return p.turns.empty() ? 0.0 : p.turns[k]; };
     const std::vector<double> root_w = speed_weights(p.roots, w.alpha, w.v_c);
     const std::vector<double> facing_w = speed_weights(p.facings, w.alpha, w.r_c);
+
+    // The rigid moves that carry the captured path onto each fixed end (turn, then shift), blended.
+    std::vector<Eigen::Vector2d> moved_roots(n);
+    std::vector<double> moved_facings(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        auto onto = [&](const PathEnd& end, std::size_t at) {
+            return std::pair{Eigen::Vector2d(Eigen::Rotation2Dd(turn(at)) * (p.roots[k] - p.roots[at]) + end.root),
+                             p.facings[k] - p.facings[at] + end.facing};
+        };
+        const auto from_first = p.first ? onto(*p.first, 0) : onto(*p.last, n - 1);
+        const auto from_last = p.last ? onto(*p.last, n - 1) : from_first;
+        const double t = n > 1 ? double(k) / double(n - 1) : 0.0;
+        moved_roots[k] = (1 - t) * from_first.first + t * from_last.first;
+        moved_facings[k] = (1 - t) * from_first.second + t * from_last.second;
+    }
     std::array<Channel, 3> c;
     for (int axis = 0; axis < 3; ++axis) {
         Channel& ch = c[std::size_t(axis)];
-        ch.original.resize(n);
-        for (std::size_t k = 0; k < n; ++k) ch.original[k] = axis < 2 ? p.roots[k][axis] : p.facings[k];
+        ch.moved.resize(n);
+        ch.acceleration_target.assign(n, 0.0);
+        ch.velocity_target.assign(n, 0.0);
+        for (std::size_t k = 0; k < n; ++k) ch.moved[k] = axis < 2 ? moved_roots[k][axis] : moved_facings[k];
+        for (std::size_t k = 1; k + 1 < n; ++k) {
+            if (axis < 2) {
+                const Eigen::Rotation2Dd r(turn(k));
+                ch.acceleration_target[k] = (r * (p.roots[k - 1] - 2 * p.roots[k] + p.roots[k + 1]))[axis];
+                ch.velocity_target[k] = (r * ((p.roots[k - 1] - p.roots[k + 1]) / 2))[axis];
+            } else {
+                ch.acceleration_target[k] = p.facings[k - 1] - 2 * p.facings[k] + p.facings[k + 1];
+                ch.velocity_target[k] = (p.facings[k - 1] - p.facings[k + 1]) / 2;
+            }
+        }
         if (p.first) ch.first = axis < 2 ? p.first->root[axis] : p.first->facing;
         if (p.last) ch.last = axis < 2 ? p.last->root[axis] : p.last->facing;
         ch.acceleration_weight = w.delta;

@@ -33,6 +33,10 @@ struct PathProblem {
     std::vector<Eigen::Vector2d> roots;  // captured roots C_k, in the scene frame
     std::vector<double> facings;         // captured facings F_k, unwrapped radians
     std::optional<PathEnd> first, last;  // the fixed edited boundaries (at least one)
+    // Beyond the paper: the turn (radians) the edit gives the object at each frame. The captured
+    // accelerations and velocities are compared after this turn, so a performer turned by the edit
+    // keeps walking the way it faces. Empty: no turn, exactly METHOD.md's f_a and f_v.
+    std::vector<double> turns;
 };
 
 struct PathSolution {
@@ -48,9 +52,9 @@ std::vector<double> speed_weights(const std::vector<double>& angles, double alph
 
 // The exact minimiser, by sparse QR on the banded system. When the objective alone does not
 // determine the path (one fixed end, or delta = 0 with its odd/even decoupling), a tie-break term
-// 1e-9 |C-bar_k - (C_k + d_k)|^2 picks the minimiser closest to the captured path moved by d_k, the
-// boundary displacements blended linearly along the segment; it is zero whenever that moved path is
-// itself optimal (e.g. both ends shifted by one vector).
+// 1e-9 |C-bar_k - M_k|^2 picks the minimiser closest to the captured path moved rigidly onto the
+// fixed ends (M_k: the two ends' rigid moves blended linearly along the segment); it is zero
+// whenever that moved path is itself optimal (e.g. both ends moved by one rigid motion).
 PathSolution optimise_path(const PathProblem& problem, const PathWeights& weights);
 
 // The same objective built as one dense matrix over every frame and solved by a generic dense

@@ -18,8 +18,9 @@ double bone_radius(const std::string& parent, const std::string& child) {
     // Bone named by the joint it starts at; ordered from specific to general.
     if (contains(parent, "Sword") || contains(parent, "Prop")) return 0.02;  // a blade or a stick
     if (contains(child, "_end") && contains(parent, "Head")) return 0.10;  // skull
-    if (contains(parent, "Thumb") || contains(parent, "Index") || contains(parent, "Finger")) return 0.022;
-    if (contains(parent, "Hand")) return 0.035;
+    // A hand is a mitten: about 9 cm across the palm, so 4 cm around the finger bones; the thumb 2 cm.
+    if (contains(parent, "Thumb")) return 0.02;
+    if (contains(parent, "Index") || contains(parent, "Finger") || contains(parent, "Hand")) return 0.04;
     if (contains(parent, "ForeArm")) return 0.038;
     if (contains(parent, "Shoulder")) return 0.055;
     if (contains(parent, "Arm")) return 0.047;
@@ -91,6 +92,18 @@ std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, co
         const std::string& parent = motion.joints[std::size_t(joint.parent)].name;
         Vec3 a = world(std::size_t(joint.parent)), b = world(j);
         if ((b - a).norm() < 1e-4) continue;  // zero-length bones (CMU's hip joints) add nothing
+        if (joint.end_site && body_part(parent).ends_with("hand")) {
+            // Mocap hands stop at a marker near the knuckles (CMU: 8 cm from the wrist); a real
+            // hand reaches kHandLength from the wrist (the thumb kThumbLength). The last bone is
+            // extended along its direction so the body's hands are as long as a person's.
+            int wrist = joint.parent;
+            while (wrist >= 0 && !motion.joints[std::size_t(wrist)].name.ends_with("Hand")) wrist = motion.joints[std::size_t(wrist)].parent;
+            if (wrist >= 0) {
+                const double target = contains(parent, "Thumb") ? kThumbLength : kHandLength;
+                const double reach = (b - world(std::size_t(wrist))).norm();
+                if (reach < target) b += (b - a).normalized() * (target - reach);
+            }
+        }
         double radius = bone_radius(parent, joint.name);
         TriangleMesh& mesh = part_mesh(body_part(parent));
         if (contains(parent, "Head") && joint.end_site) {

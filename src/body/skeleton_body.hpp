@@ -11,6 +11,11 @@ namespace amhv {
 // other skeletons fall back to matching words such as "Head", "Hand", "Leg").
 double bone_radius(const std::string& parent, const std::string& child);
 
+// Wrist to fingertip, and wrist to thumb tip, of an adult hand (metres): hand chains that end
+// short of these (marker sets stop at the knuckles) are extended to them.
+inline constexpr double kHandLength = 0.18;
+inline constexpr double kThumbLength = 0.11;
+
 struct SkeletonBodyOptions {
     UnitsAndAxes units{0.0564444, UpAxis::Y};  // CMU defaults
     int segments = 12;                          // around each capsule

@@ -244,6 +244,11 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
             }
             if (before) p.first = PathEnd{frames[std::size_t(first)].edited_root, frames[std::size_t(first)].edited_facing};
             if (after) p.last = PathEnd{frames[std::size_t(last)].edited_root, frames[std::size_t(last)].edited_facing};
+            // The turn the edit gives the object, blended between the key segments' turns.
+            auto turn_at = [&](int m) { return frames[std::size_t(m)].edited_facing - frames[std::size_t(m)].original_facing; };
+            const double turn_first = before ? turn_at(first) : turn_at(last), turn_last = after ? turn_at(last) : turn_first;
+            for (int m = first; m <= last; ++m)
+                p.turns.push_back(turn_first + (turn_last - turn_first) * (last > first ? double(m - first) / (last - first) : 0.0));
             const PathSolution sol = optimise_path(p, pw);
             PathReport report{int(s), o, seg.length, sol.root_cost, sol.facing_cost, 0};
             for (int m = seg.first; m < seg.first + seg.length; ++m) {
