@@ -8,7 +8,7 @@ namespace amhv::cli {
 void add_devices_command(CLI::App& app);
 void add_mhv_command(CLI::App& app);
 void add_scene_commands(CLI::App& app);  // check, sweep
-void add_edit_command(CLI::App& app);
+void add_edit_command(CLI::App& app);  // edit, demo
 
 // Runs the whole program; returns the exit code. Every failure becomes one "amhv: error: ..." line.
 int run(int argc, char** argv);

@@ -4,9 +4,13 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <limits>
+#include <numbers>
 #include <sstream>
 
 #include <unistd.h>
+
+#include <Eigen/Geometry>
 
 #include "core/error.hpp"
 #include "io/sweep_output.hpp"
@@ -47,6 +51,29 @@ nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 std::string counts(const std::array<std::uint64_t, 4>& rejected) {
     return fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", rejected[0], rejected[1], rejected[2], rejected[3]);
+}
+
+// The true pose of B relative to A in this key segment (METHOD.md section 4's form) and whether the
+// group holds a solution within one voxel on x and y and one angle step of it.
+nlohmann::ordered_json truth_json(const Scene& scene, const SweepProblem& problem, const std::vector<Solution>& group) {
+    const Placement& t = *scene.truth;
+    const double yaw = t.yaw_deg * std::numbers::pi / 180;
+    const Eigen::Vector2d ca(problem.a.root.x(), problem.a.root.y()), cb(problem.b.root.x(), problem.b.root.y());
+    const Eigen::Vector2d offset = Eigen::Rotation2Dd(yaw) * cb + Eigen::Vector2d(t.x, t.y) - ca;
+    const double h = problem.voxel, step = problem.angle_step_deg;
+    double nearest = std::numeric_limits<double>::infinity();
+    bool within = false;
+    for (const Solution& s : group) {
+        const double turn = std::abs(std::remainder(s.theta_deg - t.yaw_deg, 360.0));
+        const double dx = std::abs(s.x - offset.x()), dy = std::abs(s.y - offset.y());
+        within = within || (dx <= h + 1e-9 && dy <= h + 1e-9 && turn <= step + 1e-9);
+        if (turn <= step + 1e-9) nearest = std::min(nearest, std::hypot(dx, dy));
+    }
+    return {{"x", offset.x()},
+            {"y", offset.y()},
+            {"theta_deg", std::remainder(t.yaw_deg, 360.0)},
+            {"in_group", within},
+            {"nearest_solution_m", std::isinf(nearest) ? nlohmann::json(nullptr) : nlohmann::json(nearest)}};
 }
 
 }  // namespace
@@ -103,6 +130,7 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
                       {"feasibility", options.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
                       {"feasibility_files", maps}};
+        if (scene.truth) s["truth"] = truth_json(scene, problem, list);
         if (options.timings) s["timings_s"] = timings;
         stage.segments.push_back(s);
 

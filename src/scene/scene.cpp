@@ -314,6 +314,16 @@ Scene load_scene(const fs::path& file) {
     }
     weights.finish();
 
+    if (top.has("truth")) {
+        TableReader truth = top.table("truth");
+        Placement t;
+        t.x = truth.number("x", -1e4, 1e4).value_or(0);
+        t.y = truth.number("y", -1e4, 1e4).value_or(0);
+        t.yaw_deg = truth.number("yaw_deg", -360, 360).value_or(0);
+        truth.finish();
+        scene.truth = t;
+    }
+
     TableReader objects = top.table("objects", true);
     scene.a = read_object(objects, "A");
     scene.b = read_object(objects, "B");
@@ -409,6 +419,7 @@ std::string resolved_toml(const Scene& scene) {
         objects.insert(o->name, t);
     }
     root.insert("objects", objects);
+    if (scene.truth) root.insert("truth", toml::table{{"x", scene.truth->x}, {"y", scene.truth->y}, {"yaw_deg", scene.truth->yaw_deg}});
     toml::array segments;
     for (const KeySegment& k : scene.segments) {
         NormalisedPair pair = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1);

@@ -80,6 +80,10 @@ struct Scene {
     Weights weights;
     SceneObject a, b;
     std::vector<KeySegment> segments;
+    // Optional ground truth for evaluation: where B's capture frame really sits in A's capture
+    // frame (captures made together, e.g. the CMU pair: identity). Results then report how far the
+    // solution group and the chosen pose are from it.
+    std::optional<Placement> truth;
 };
 
 // Parses and validates `file`; relative paths are resolved against the file's folder. Checks the
