@@ -60,4 +60,23 @@ std::string read_text(const std::filesystem::path& path) {
     return s.str();
 }
 
+void replace_in_file(const std::filesystem::path& path, const std::string& from, const std::string& to) {
+    std::string text = read_text(path);
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from << " is not in " << path;
+    text.replace(at, from.size(), to);
+    std::ofstream(path, std::ios::binary) << text;
+}
+
+void write_labelled_obj(const std::filesystem::path& obj, const std::filesystem::path& labels,
+                        const std::vector<std::pair<std::string, TriangleMesh>>& parts) {
+    TriangleMesh all;
+    std::ofstream out(labels);
+    for (const auto& [name, mesh] : parts) {
+        all.append(mesh);
+        for (std::size_t v = 0; v < mesh.vertices.size(); ++v) out << name << '\n';
+    }
+    write_obj(obj, all);
+}
+
 }  // namespace amhv::test

@@ -1,6 +1,8 @@
 #pragma once
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -32,6 +34,11 @@ std::filesystem::path source_dir();
 void write_obj(const std::filesystem::path& path, const TriangleMesh& mesh);
 // The whole file as bytes.
 std::string read_text(const std::filesystem::path& path);
+// Replaces the first `from` in the file with `to`; a test failure when `from` is not there.
+void replace_in_file(const std::filesystem::path& path, const std::string& from, const std::string& to);
+// The parts' union as an OBJ file and, beside it, a labels file: one part name per vertex.
+void write_labelled_obj(const std::filesystem::path& obj, const std::filesystem::path& labels,
+                        const std::vector<std::pair<std::string, TriangleMesh>>& parts);
 
 struct CommandResult {
     int exit_code;

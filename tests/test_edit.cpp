@@ -22,7 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::read_text;
-using test::write_obj;
 
 // A's root walks along +x, stands still over frames 15..24 while reaching forward with a hand,
 // then walks on (40 frames). B was captured elsewhere and later (45 frames): it walks along +y and
@@ -42,13 +41,9 @@ struct EditFixture {
         const fs::path root = dir.path();
         for (const char* sub : {"a", "a_labels", "b", "b_labels"}) fs::create_directories(root / sub);
         auto body = [](const Eigen::Vector2d& at, const Eigen::Vector2d& forward, const fs::path& mesh, const fs::path& labels) {
-            TriangleMesh m = shapes::capsule({at.x(), at.y(), 0.4}, {at.x(), at.y(), 1.4}, 0.2, 3, 10);
-            const std::size_t body_vertices = m.vertices.size();
             const Eigen::Vector2d hand = at + 0.3 * forward;
-            m.append(shapes::sphere({hand.x(), hand.y(), 1.2}, 0.06, 6, 10));
-            write_obj(mesh, m);
-            std::ofstream out(labels);
-            for (std::size_t v = 0; v < m.vertices.size(); ++v) out << (v < body_vertices ? "body\n" : "hand\n");
+            test::write_labelled_obj(mesh, labels, {{"body", shapes::capsule({at.x(), at.y(), 0.4}, {at.x(), at.y(), 1.4}, 0.2, 3, 10)},
+                                                    {"hand", shapes::sphere({hand.x(), hand.y(), 1.2}, 0.06, 6, 10)}});
         };
         for (int f = 0; f < 40; ++f)
             body({walk(f, 15, 24), 0}, {1, 0}, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
@@ -82,12 +77,6 @@ fidelity = {{ A = {{ parts = ["body"] }}, B = {{ parts = ["body"] }} }}
     }
     std::string quoted() const { return fmt::format("'{}'", scene.string()); }
 };
-
-void replace_once(std::string& text, const std::string& from, const std::string& to) {
-    const std::size_t at = text.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    text.replace(at, from.size(), to);
-}
 
 nlohmann::json read_json(const fs::path& p) { return nlohmann::json::parse(read_text(p)); }
 
@@ -221,9 +210,7 @@ TEST(Edit, FromSweepOfAnotherSceneIsRefused) {
 TEST(Edit, AnEmptyGroupStopsTheEditUnlessAllowed) {
     // An interest box where A has no voxel is an error of the scene, not an empty group.
     EditFixture fixture("0&0a");
-    std::string text = read_text(fixture.scene);
-    replace_once(text, "A = { parts = [\"hand\"] }", "A = { box = { min = [-5.0, -5.0, 3.0], max = [5.0, 5.0, 3.2] } }");
-    std::ofstream(fixture.scene) << text;
+    test::replace_in_file(fixture.scene, "A = { parts = [\"hand\"] }", "A = { box = { min = [-5.0, -5.0, 3.0], max = [5.0, 5.0, 3.2] } }");
     const fs::path root = fixture.dir.path();
     auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + (root / "e").string() + "'");
     EXPECT_NE(run.exit_code, 0);
@@ -232,10 +219,8 @@ TEST(Edit, AnEmptyGroupStopsTheEditUnlessAllowed) {
     // An impossible pair: the bodies must touch at every frame (interest) and never share a voxel
     // (fidelity), so every pose in contact fails fidelity and the group is empty.
     EditFixture clash("0&0a");
-    text = read_text(clash.scene);
-    replace_once(text, "interest = { A = { parts = [\"hand\"] }, B = { parts = [\"hand\"] } }",
-                 "interest = { A = { parts = [\"body\"] }, B = { parts = [\"body\"] } }");
-    std::ofstream(clash.scene) << text;
+    test::replace_in_file(clash.scene, "interest = { A = { parts = [\"hand\"] }, B = { parts = [\"hand\"] } }",
+                          "interest = { A = { parts = [\"body\"] }, B = { parts = [\"body\"] } }");
     const fs::path croot = clash.dir.path();
     run = test::run_amhv("edit " + clash.quoted() + " --out '" + (croot / "e").string() + "'");
     EXPECT_NE(run.exit_code, 0);

@@ -41,13 +41,10 @@ struct SceneFixture {
             write_obj(root / "a" / fmt::format("{:04d}.obj", f), shapes::capsule({0, 0, 0.4}, {0, 0, 1.4}, 0.2, 3, 10));
             write_obj(root / "fist" / fmt::format("{:04d}.obj", f), shapes::sphere({0.25 + 0.3 * s, 0, 1.2}, 0.06, 6, 10));
             track << fmt::format("{},0.05,0,1.6,1,0,-0.1\n", f);
-            TriangleMesh body = shapes::capsule({0, 0, 0.4}, {0, 0, 1.4}, 0.2, 3, 10);
-            const std::size_t body_vertices = body.vertices.size();
             const double hx = b_hand_moves ? 0.55 - 0.3 * s : 0.4;
-            body.append(shapes::sphere({hx, 0.02, 1.2}, 0.06, 6, 10));
-            write_obj(root / "b" / fmt::format("{:04d}.obj", f), body);
-            std::ofstream labels(root / "b_labels" / fmt::format("{:04d}.txt", f));
-            for (std::size_t v = 0; v < body.vertices.size(); ++v) labels << (v < body_vertices ? "body\n" : "hand\n");
+            test::write_labelled_obj(root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f),
+                                     {{"body", shapes::capsule({0, 0, 0.4}, {0, 0, 1.4}, 0.2, 3, 10)},
+                                      {"hand", shapes::sphere({hx, 0.02, 1.2}, 0.06, 6, 10)}});
         }
         scene = root / "scene.toml";
         std::ofstream(scene) << fmt::format(R"([sampling]
@@ -164,12 +161,8 @@ class SceneBadInput : public ::testing::TestWithParam<BadScene> {};
 
 TEST_P(SceneBadInput, OneLineErrorWithLineAndKey) {
     SceneFixture fixture;
-    std::string text = read_text(fixture.scene);
     const BadScene& bad = GetParam();
-    auto at = text.find(bad.from);
-    ASSERT_NE(at, std::string::npos) << bad.from;
-    text = text.substr(0, at) + std::string(bad.to) + text.substr(at + std::string(bad.from).size());
-    std::ofstream(fixture.scene) << text;
+    test::replace_in_file(fixture.scene, bad.from, bad.to);
     const fs::path out = fixture.dir.path() / "out";
     for (const char* command : {"check", "sweep"}) {
         auto result = test::run_amhv(std::string(command) + " '" + fixture.scene.string() + "'" +
@@ -215,13 +208,9 @@ namespace {
 // comes), in the capture frame.
 TEST(Scene, BoxInterestSweeps) {
     SceneFixture fixture;
-    std::string text = read_text(fixture.scene);
-    const std::string from = "A = { meshes = \"fist/%04d.obj\" }";
-    text = text.substr(0, text.find(from)) + "A = { box = { min = [-0.3, -0.3, 1.0], max = [0.3, 0.3, 1.5] } }" +
-           text.substr(text.find(from) + from.size());
+    test::replace_in_file(fixture.scene, "A = { meshes = \"fist/%04d.obj\" }", "A = { box = { min = [-0.3, -0.3, 1.0], max = [0.3, 0.3, 1.5] } }");
     // B's hand points away from its facing in this fixture: leave visibility out of this test.
-    text.replace(text.find("enabled = true"), 14, "enabled = false");
-    std::ofstream(fixture.scene) << text;
+    test::replace_in_file(fixture.scene, "enabled = true", "enabled = false");
     const std::string scene = fmt::format("'{}'", fixture.scene.string());
     auto result = test::run_amhv("sweep " + scene + " --no-maps --out '" + (fixture.dir.path() / "out").string() + "'");
     ASSERT_EQ(result.exit_code, 0) << result.output;
@@ -242,10 +231,7 @@ namespace {
 // A part name that no label file uses is an error naming the object and the part.
 TEST(Scene, UnknownPartInLabelFilesIsAnError) {
     SceneFixture fixture;
-    std::string text = read_text(fixture.scene);
-    const std::string from = "B = { parts = [\"hand\"] }";
-    text = text.substr(0, text.find(from)) + "B = { parts = [\"hnad\"] }" + text.substr(text.find(from) + from.size());
-    std::ofstream(fixture.scene) << text;
+    test::replace_in_file(fixture.scene, "B = { parts = [\"hand\"] }", "B = { parts = [\"hnad\"] }");
     const fs::path out = fixture.dir.path() / "out";
     auto result = test::run_amhv(fmt::format("sweep '{}' --out '{}'", fixture.scene.string(), out.string()));
     EXPECT_NE(result.exit_code, 0);

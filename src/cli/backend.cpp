@@ -8,6 +8,11 @@
 
 namespace amhv::cli {
 
+void add_backend_options(CLI::App& command, std::string& backend, int& device) {
+    command.add_option("--backend", backend, "vulkan or cpu (the plain reference)")->capture_default_str();
+    command.add_option("--device", device, "Vulkan device index (see `amhv devices`)");
+}
+
 Backend::Backend(const std::string& name, int device) {
     if (name == "vulkan") {
         gpu::ContextOptions options;

@@ -3,6 +3,8 @@
 // GPU voxeliser and sweeper, or the plain CPU references. Each stage's pipeline is only built when
 // a subcommand first asks for it.
 #include <memory>
+
+#include <CLI/CLI.hpp>
 #include <string>
 
 #include "core/voxelise.hpp"
@@ -10,6 +12,9 @@
 #include "sweep/problem.hpp"
 
 namespace amhv::cli {
+
+// Registers --backend and --device on `command`.
+void add_backend_options(CLI::App& command, std::string& backend, int& device);
 
 class Backend {
 public:

@@ -12,6 +12,7 @@
 #include "cli/backend.hpp"
 #include "cli/commands.hpp"
 #include "cli/sweep_stage.hpp"
+#include "core/clock.hpp"
 #include "core/error.hpp"
 #include "edit/edit.hpp"
 #include "io/edit_output.hpp"
@@ -27,10 +28,6 @@ struct EditArguments {
     bool allow_empty = false, frames = true, maps = false, timings = true;
 };
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 double degrees(double radians) { return radians * 180 / std::numbers::pi; }
 
 nlohmann::ordered_json solution_json(const Solution& s) {
@@ -44,19 +41,7 @@ void run_edit(const EditArguments& args) {
     ObjectSource a(scene.a), b(scene.b);
     StagedOutput out(args.out);
 
-    nlohmann::ordered_json json;
-    json["program"] = std::string("amhv ") + AMHV_VERSION;
-    json["scene"] = scene.file.string();
-    json["backend"] = args.backend;
-    json["device"] = backend.device();
-    const Weights& w = scene.weights;
-    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
-                          {"angle_step_deg", scene.sampling.angle_step_deg},
-                          {"angles", scene.sampling.angles()},
-                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
-                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
-                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
-                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+    nlohmann::ordered_json json = result_header(scene, args.backend, backend.device());
     json["from_sweep"] = args.from_sweep.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.from_sweep);
 
     // aMHVs and sweep (or the groups of an earlier sweep).
@@ -71,7 +56,7 @@ void run_edit(const EditArguments& args) {
     auto t0 = std::chrono::steady_clock::now();
     write_transforms_json(out.dir() / "transforms.json", scene, edit);
     const int frame_files = args.frames ? write_scene_frames(out.dir() / "frames", edit, a, b) : 0;
-    write_paths_picture(out.dir() / "paths.svg", out.dir() / "paths.png", scene, edit);
+    write_paths_picture(out.dir() / "paths.svg", out.dir() / "paths.png", edit);
 
     json["segments"] = stage.segments;
     for (std::size_t i = 0; i < edit.keys.size(); ++i) {
@@ -150,8 +135,7 @@ void add_edit_command(CLI::App& app) {
     auto* edit = app.add_subcommand("edit", "Run the whole pipeline: aMHVs, sweep, one solution per key segment, transitional paths, the edited scene");
     edit->add_option("scene", args->scene, "Scene file (TOML)")->required();
     edit->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
-    edit->add_option("--backend", args->backend, "vulkan or cpu (the plain reference)")->capture_default_str();
-    edit->add_option("--device", args->device, "Vulkan device index (see `amhv devices`)");
+    add_backend_options(*edit, args->backend, args->device);
     edit->add_option("--from-sweep", args->from_sweep, "Reuse the solution groups of an earlier `amhv sweep` (or `amhv edit`) of this scene");
     edit->add_flag("--allow-empty", args->allow_empty, "Keep B's captured placement in a key segment whose solution group is empty");
     edit->add_flag("!--no-frames", args->frames, "Skip frames/NNNN.ply");
@@ -163,8 +147,7 @@ void add_edit_command(CLI::App& app) {
     demo_args->out = "out/demo";
     auto* demo = app.add_subcommand("demo", "Run the built-in demo: a real handshake restored from two separated CMU captures");
     demo->add_option("--out", demo_args->out, "Output folder")->capture_default_str();
-    demo->add_option("--backend", demo_args->backend, "vulkan or cpu (the plain reference)")->capture_default_str();
-    demo->add_option("--device", demo_args->device, "Vulkan device index (see `amhv devices`)");
+    add_backend_options(*demo, demo_args->backend, demo_args->device);
     demo->add_flag("!--no-frames", demo_args->frames, "Skip frames/NNNN.ply");
     demo->add_flag("!--no-timings", demo_args->timings, "Leave timings out of result.json");
     demo->callback([demo_args] { run_demo(*demo_args); });

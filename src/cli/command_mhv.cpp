@@ -166,8 +166,7 @@ void add_mhv_command(CLI::App& app) {
     command->add_option("--up", args->up, "Input up axis: x, y or z (default z; BVH: y)");
     command->add_option("--resample", args->resample, "Resample the segment to N frames (METHOD.md section 2)");
     command->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
-    command->add_option("--backend", args->backend, "vulkan or cpu (the plain reference)")->capture_default_str();
-    command->add_option("--device", args->device, "Vulkan device index (see `amhv devices`)");
+    add_backend_options(*command, args->backend, args->device);
     command->add_option("--axis", args->axis, "EXR slicing axis: x, y or z")->capture_default_str();
     command->add_flag("--exr-multipart", args->exr_multipart, "All slices as parts of one multi-part EXR file");
     command->add_flag("!--no-exr", args->exr, "Skip the EXR slices");

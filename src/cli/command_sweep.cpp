@@ -9,6 +9,7 @@
 #include "cli/backend.hpp"
 #include "cli/commands.hpp"
 #include "cli/sweep_stage.hpp"
+#include "core/clock.hpp"
 #include "core/error.hpp"
 #include "io/output_dir.hpp"
 #include "scene/scene.hpp"
@@ -23,10 +24,6 @@ struct SweepArguments {
     int device = -1;
     bool require_solutions = false, maps = true, timings = true;
 };
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 void run_check(const std::string& file) {
     Scene scene = load_scene(file);
@@ -45,19 +42,7 @@ void run_sweep(const SweepArguments& args) {
 
     ObjectSource a(scene.a), b(scene.b);
     StagedOutput out(args.out);
-    nlohmann::ordered_json json;
-    json["program"] = std::string("amhv ") + AMHV_VERSION;
-    json["scene"] = scene.file.string();
-    json["backend"] = args.backend;
-    json["device"] = backend.device();
-    const Weights& w = scene.weights;
-    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
-                          {"angle_step_deg", scene.sampling.angle_step_deg},
-                          {"angles", scene.sampling.angles()},
-                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
-                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
-                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
-                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+    nlohmann::ordered_json json = result_header(scene, args.backend, backend.device());
     SweepStage stage = run_sweep_stage(scene, a, b, voxeliser, sweeper, out.dir(), {args.segment, args.maps, args.timings});
     json["segments"] = stage.segments;
     std::vector<int> empty_segments;
@@ -84,9 +69,8 @@ void add_scene_commands(CLI::App& app) {
     auto* sweep = app.add_subcommand("sweep", "Find every placement of B around A that satisfies each key segment's constraints");
     sweep->add_option("scene", args->scene, "Scene file (TOML)")->required();
     sweep->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
-    sweep->add_option("--backend", args->backend, "vulkan or cpu (the plain reference)")->capture_default_str();
+    add_backend_options(*sweep, args->backend, args->device);
     sweep->add_option("--segment", args->segment, "Only key segment N (1-based)");
-    sweep->add_option("--device", args->device, "Vulkan device index (see `amhv devices`)");
     sweep->add_flag("--require-solutions", args->require_solutions, "Exit non-zero when a key segment has no solution");
     sweep->add_flag("!--no-maps", args->maps, "Skip the feasibility maps");
     sweep->add_flag("!--no-timings", args->timings, "Leave timings out of result.json (byte-identical reruns)");

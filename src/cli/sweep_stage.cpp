@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/clock.hpp"
 #include "core/error.hpp"
 #include "io/sweep_output.hpp"
 
@@ -20,10 +21,6 @@ namespace amhv::cli {
 namespace fs = std::filesystem;
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // A one-line progress bar on stderr, only when stderr is a terminal.
 class ProgressBar {
@@ -49,10 +46,6 @@ private:
 
 nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
-std::string counts(const std::array<std::uint64_t, 4>& rejected) {
-    return fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", rejected[0], rejected[1], rejected[2], rejected[3]);
-}
-
 // The true pose of B relative to A in this key segment (METHOD.md section 4's form) and whether the
 // group holds a solution within one voxel on x and y and one angle step of it.
 nlohmann::ordered_json truth_json(const Scene& scene, const SweepProblem& problem, const std::vector<Solution>& group) {
@@ -77,6 +70,23 @@ nlohmann::ordered_json truth_json(const Scene& scene, const SweepProblem& proble
 }
 
 }  // namespace
+
+nlohmann::ordered_json result_header(const Scene& scene, const std::string& backend, const std::string& device) {
+    nlohmann::ordered_json json;
+    json["program"] = std::string("amhv ") + AMHV_VERSION;
+    json["scene"] = scene.file.string();
+    json["backend"] = backend;
+    json["device"] = device;
+    const Weights& w = scene.weights;
+    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
+                          {"angle_step_deg", scene.sampling.angle_step_deg},
+                          {"angles", scene.sampling.angles()},
+                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
+                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
+                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+    return json;
+}
 
 SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper, const fs::path& out,
                            const SweepStageOptions& options) {
@@ -147,11 +157,11 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
 
         if (result.solutions == 0)
             std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}\n", segment.index, segment.type.name(),
-                                     problem.range.size(), counts(result.rejected));
+                                     problem.range.size(), rejection_counts(result.rejected));
         else
             std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}\n", segment.index,
                                      segment.type.name(), result.solutions, problem.range.size(), timings["sweep"].get<double>(),
-                                     counts(result.rejected));
+                                     rejection_counts(result.rejected));
     }
     return stage;
 }

@@ -25,6 +25,10 @@ struct SweepStageOptions {
     bool maps = true, timings = true;
 };
 
+// The start of result.json for `amhv sweep` and `amhv edit`: program, scene, backend, device and
+// the resolved sampling and weights.
+nlohmann::ordered_json result_header(const Scene& scene, const std::string& backend, const std::string& device);
+
 // Builds, sweeps and writes every key segment into `out` (segment_N/...), printing one line each.
 SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper,
                            const std::filesystem::path& out, const SweepStageOptions& options);

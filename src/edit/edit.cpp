@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 
+#include "core/clock.hpp"
 #include "core/error.hpp"
 #include "optimise/path_opt.hpp"
 #include "sweep/pose_map.hpp"
@@ -25,27 +26,18 @@ Eigen::Vector2d xy(const Vec3& v) { return {v.x(), v.y()}; }
 // The representative of `angle` (mod 2 pi) nearest to `reference`.
 double nearest_turn(double angle, double reference) { return angle - 2 * kPi * std::round((angle - reference) / (2 * kPi)); }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // Per output frame: the facing from the track's gaze on the floor, else the constant facing, else +x;
 // unwrapped along the output so consecutive frames never jump by a full turn.
 std::vector<double> frame_facings(const ObjectSource& object, const std::vector<int>& numbers) {
     std::vector<double> out;
     const double constant = radians(object.spec().facing_deg.value_or(0.0));
-    double previous = constant;
     for (int number : numbers) {
-        double f = previous;
+        double f = out.empty() ? constant : out.back();  // no track sample, or looking straight down: keep the last facing
         if (auto sample = object.track(number)) {
             const Eigen::Vector2d g(sample->gaze.x(), sample->gaze.y());
-            if (g.norm() > 1e-6) f = std::atan2(g.y(), g.x());  // looking straight down: keep the last facing
-        } else if (out.empty()) {
-            f = constant;
+            if (g.norm() > 1e-6) f = std::atan2(g.y(), g.x());
         }
-        f = out.empty() ? f : nearest_turn(f, out.back());
-        out.push_back(f);
-        previous = f;
+        out.push_back(out.empty() ? f : nearest_turn(f, out.back()));
     }
     return out;
 }
@@ -163,12 +155,10 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
         c.prior_theta_rad = psi_b - psi_a;
         for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
         if (c.solutions.empty()) {
-            const std::string counts = fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", s.rejected[0], s.rejected[1],
-                                                   s.rejected[2], s.rejected[3]);
             if (!options.allow_empty)
                 throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
                                         "change its type, parts or visibility, or pass --allow-empty to keep B's captured placement there",
-                                        scene.file.string(), key.index, key.type.name(), s.poses_tested, counts));
+                                        scene.file.string(), key.index, key.type.name(), s.poses_tested, rejection_counts(s.rejected)));
             // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
             captured[i] = true;
             c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)),

@@ -190,8 +190,7 @@ int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSou
     return edit.timeline.length();
 }
 
-void write_paths_picture(const fs::path& svg, const fs::path& png, const Scene& scene, const EditResult& edit) {
-    (void)scene;
+void write_paths_picture(const fs::path& svg, const fs::path& png, const EditResult& edit) {
     const int length = edit.timeline.length();
     Eigen::AlignedBox2d world;
     for (const auto& frames : edit.frames)

@@ -21,6 +21,6 @@ int write_scene_frames(const std::filesystem::path& folder, const EditResult& ed
 // paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
 // placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),
 // facings as ticks every 10 output frames. The PNG is the same drawing without text.
-void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const Scene& scene, const EditResult& edit);
+void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const EditResult& edit);
 
 }  // namespace amhv

@@ -126,6 +126,10 @@ void SweepResult::count() {
     }
 }
 
+std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected) {
+    return fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", rejected[0], rejected[1], rejected[2], rejected[3]);
+}
+
 Solution describe(const SweepProblem& problem, int i, int j, int k) {
     Solution s;
     s.i = i;

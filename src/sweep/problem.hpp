@@ -86,6 +86,9 @@ struct SweepResult {
     void count();  // fills rejected and solutions from outcomes
 };
 
+// "contact N, dictionary N, fidelity N, visibility N" for messages.
+std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected);
+
 // The paper's descriptors of pose (i, j, k).
 Solution describe(const SweepProblem& problem, int i, int j, int k);
 // All solutions in the fixed order (theta, y, x).
