@@ -239,9 +239,9 @@ TEST(Bvh, ReadsCmuAndReportsMalformedFilesWithLineNumbers) {
                                " End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.04\n";
     for (const auto& [content, expected] : std::vector<std::pair<std::string, std::string>>{
              {header + "0 0 0 0 0 0\n1 2 3 4 5 6\n", ""},
-             {header + "0 0 0 0 0 0\n1 2 3\n", ":16: motion block is truncated: frame 1 of 2 has 3 of 6 values"},
+             {header + "0 0 0 0 0 0\n1 2 3\n", ":15: motion block is truncated: frame 1 of 2 has 3 of 6 values"},
              {header + "0 0 0 0 0 0\n1 2 x 4 5 6\n", ":15: motion value 'x' is not a finite number"},
-             {header + "0 0 0 0 0 0\n1 2 3 4 5 6 7\n", "more values than"},
+             {header + "0 0 0 0 0 0\n1 2 3 4 5 6 7\n", ":15: frame 1 has 7 values but the hierarchy declares 6 channels"},
              {"HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 2 Xposition Wrotation\n}\n", ":5: unknown channel 'Wrotation'"},
              {"HIERARCHY\nROOT Hips\n{\n OFFSET 0 0\n", ":5: file ends where offset was expected"},
              {header.substr(0, header.find("Frames")) + "Frames: 99999999999\nFrame Time: 0.04\n", "frame count"},

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <cairo.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -107,9 +108,26 @@ TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
     auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
     ASSERT_EQ(run.exit_code, 0) << run.output;
     EXPECT_NE(run.output.find("key segment 1: chosen"), std::string::npos) << run.output;
-    for (const char* f : {"result.json", "transforms.json", "paths.svg", "paths.png", "segment_1/solutions.csv", "frames/0000.ply", "frames/0039.ply"})
+    for (const char* f : {"result.json", "transforms.json", "paths.svg", "paths.png", "views/key_1.png", "segment_1/solutions.csv",
+                          "frames/0000.ply", "frames/0039.ply"})
         EXPECT_TRUE(fs::exists(out / f)) << f;
     EXPECT_FALSE(fs::exists(out / "frames/0040.ply"));
+    // The key view shows both objects: shaded orange (red > blue) and shaded blue (blue > red) pixels.
+    cairo_surface_t* view = cairo_image_surface_create_from_png((out / "views/key_1.png").c_str());
+    ASSERT_EQ(cairo_surface_status(view), CAIRO_STATUS_SUCCESS);
+    EXPECT_EQ(cairo_image_surface_get_width(view), 800);
+    int orange = 0, blue = 0;
+    for (int y = 0; y < cairo_image_surface_get_height(view); ++y) {
+        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(view) + y * cairo_image_surface_get_stride(view));
+        for (int x = 0; x < cairo_image_surface_get_width(view); ++x) {
+            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
+            orange += r > b + 60;
+            blue += b > r + 60;
+        }
+    }
+    cairo_surface_destroy(view);
+    EXPECT_GT(orange, 1000);
+    EXPECT_GT(blue, 1000);
 
     const auto result = read_json(out / "result.json");
     const auto transforms = read_json(out / "transforms.json");
@@ -189,6 +207,7 @@ TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {
     for (const char* name : {"again", "cpu", "reused"}) EXPECT_EQ(read_text(root / name / "transforms.json"), transforms) << name;
     EXPECT_EQ(read_text(root / "again/result.json"), read_text(root / "direct/result.json"));
     EXPECT_EQ(read_text(root / "again/paths.png"), read_text(root / "direct/paths.png"));
+    EXPECT_EQ(read_text(root / "cpu/views/key_1.png"), read_text(root / "direct/views/key_1.png"));
     EXPECT_EQ(read_text(root / "again/paths.svg"), read_text(root / "direct/paths.svg"));
     EXPECT_FALSE(fs::exists(root / "direct/frames"));
 }

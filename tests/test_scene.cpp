@@ -191,6 +191,8 @@ INSTANTIATE_TEST_SUITE_P(
                  "segments[2].a: overlaps or comes before key segment 1"},
         BadScene{"BothSources", "meshes = \"a/%04d.obj\"", "meshes = \"a/%04d.obj\"\nbvh = \"x.bvh\"",
                  "objects.A.meshes: give exactly one of 'meshes'"},
+        BadScene{"TPoseOnMeshes", "meshes = \"a/%04d.obj\"", "meshes = \"a/%04d.obj\"\ntpose = \"skip\"",
+                 "objects.A.tpose: only a BVH object has a T-pose frame"},
         BadScene{"PartsWithoutLabels", "A = { meshes = \"fist/%04d.obj\" }", "A = { parts = [\"hand\"] }",
                  "object A has no part labels"},
         BadScene{"MissingType", "type = \"0&0b\"", "", "segments[1].type: is missing"},

@@ -152,7 +152,7 @@ std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonB
         if (forward.norm() < 1e-9) forward = Vec3::UnitX();
         forward.normalize();
         head_rotation[std::size_t(f)] = axes * g[head].linear() * axes.transpose();
-        head_local_forward += head_rotation[std::size_t(f)].transpose() * forward;
+        if (f >= motion.first_frame) head_local_forward += head_rotation[std::size_t(f)].transpose() * forward;  // not the T-pose
         Vec3 top = head_end >= 0 ? at(std::size_t(head_end)) : at(head) + Vec3(0, 0, 0.2);
         track[std::size_t(f)].eye = 0.5 * (at(head) + top);
         track[std::size_t(f)].gaze = forward;

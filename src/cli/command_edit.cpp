@@ -34,6 +34,13 @@ nlohmann::ordered_json solution_json(const Solution& s) {
     return {{"x", s.x}, {"y", s.y}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
 }
 
+// views/key_N.png and the output frame each shows.
+nlohmann::ordered_json views_json(const std::vector<int>& frames) {
+    nlohmann::ordered_json views = nlohmann::ordered_json::array();
+    for (std::size_t i = 0; i < frames.size(); ++i) views.push_back({{"file", fmt::format("views/key_{}.png", i + 1)}, {"output_frame", frames[i]}});
+    return views;
+}
+
 void run_edit(const EditArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     Scene scene = load_scene(args.scene);
@@ -57,6 +64,7 @@ void run_edit(const EditArguments& args) {
     write_transforms_json(out.dir() / "transforms.json", scene, edit);
     const int frame_files = args.frames ? write_scene_frames(out.dir() / "frames", edit, a, b) : 0;
     write_paths_picture(out.dir() / "paths.svg", out.dir() / "paths.png", edit);
+    const std::vector<int> views = write_key_views(out.dir() / "views", edit, a, b);
 
     json["segments"] = stage.segments;
     for (std::size_t i = 0; i < edit.keys.size(); ++i) {
@@ -90,7 +98,8 @@ void run_edit(const EditArguments& args) {
                       {"transforms", "transforms.json"},
                       {"meshes", args.frames ? nlohmann::json("frames/NNNN.ply") : nlohmann::json(nullptr)},
                       {"mesh_files", frame_files},
-                      {"paths", {"paths.svg", "paths.png"}}};
+                      {"paths", {"paths.svg", "paths.png"}},
+                      {"views", views_json(views)}};
     const double output_seconds = seconds_since(t0) + stage.output_seconds;
     if (args.timings)
         json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
@@ -101,7 +110,7 @@ void run_edit(const EditArguments& args) {
     for (const KeyEdit& k : edit.keys)
         std::cout << fmt::format("key segment {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
                                  k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y, k.chosen.theta_deg, k.chosen.distance);
-    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}, paths.svg, paths.png, result.json)\n", out.target().string(),
+    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}, paths.svg, paths.png, views/key_N.png, result.json)\n", out.target().string(),
                              edit.timeline.length(), args.frames ? ", frames/NNNN.ply" : "");
 }
 
@@ -121,6 +130,7 @@ void run_demo(EditArguments args) {
     const std::string out = args.out;
     std::cout << fmt::format(
         "look at:\n"
+        "  {0}/views/key_1.png    the middle of the handshake from the side, as the edit places the two performers\n"
         "  {0}/paths.png          root paths from above: dashed = captured, solid = edited, thick = the handshake\n"
         "  {0}/frames/NNNN.ply    both performers per output frame (A orange, B blue): MeshLab, Blender (File > Import > PLY) or ParaView\n"
         "  {0}/result.json        the solution group, the chosen pose, and \"truth\": how far both are from the real capture\n"

@@ -10,6 +10,7 @@
 
 #include "body/skeleton_body.hpp"
 #include "cli/backend.hpp"
+#include "cli/bvh_options.hpp"
 #include "cli/commands.hpp"
 #include "core/error.hpp"
 #include "core/normalise.hpp"
@@ -31,6 +32,7 @@ struct MhvArguments {
     int resample = 0;
     int device = -1;
     bool exr = true, exr_multipart = false, vdb = false, timings = true;
+    BvhArguments bvh_options;
 };
 
 class Stopwatch {
@@ -77,8 +79,8 @@ void run_mhv(const MhvArguments& args) {
         SkeletonBodyOptions options;
         if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
         if (!args.up.empty()) options.units.up = parse_up_axis(args.up, "--up");
-        BvhMotion motion = read_bvh(args.bvh);
-        sequence = skeleton_body_sequence(motion, range.value_or(FrameRange{0, motion.frame_count - 1}), options);
+        BvhMotion motion = load_bvh(args.bvh, bvh_load_options(args.bvh_options));
+        sequence = skeleton_body_sequence(motion, bvh_frames(motion, args.frames), options);
         source = args.bvh;
     }
     timings["read"] = clock.lap();
@@ -164,6 +166,7 @@ void add_mhv_command(CLI::App& app) {
     command->add_option("--voxel", args->voxel, "Voxel edge in metres")->capture_default_str();
     command->add_option("--unit", args->unit, "Input unit: m, cm, mm, in, ft or metres per unit (default m; BVH: 0.0564444, CMU)");
     command->add_option("--up", args->up, "Input up axis: x, y or z (default z; BVH: y)");
+    add_bvh_options(*command, args->bvh_options);
     command->add_option("--resample", args->resample, "Resample the segment to N frames (METHOD.md section 2)");
     command->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
     add_backend_options(*command, args->backend, args->device);

@@ -7,6 +7,7 @@ namespace amhv::cli {
 // Registers the subcommands; the returned callbacks run after parsing.
 void add_devices_command(CLI::App& app);
 void add_mhv_command(CLI::App& app);
+void add_import_bvh_command(CLI::App& app);
 void add_scene_commands(CLI::App& app);  // check, sweep
 void add_edit_command(CLI::App& app);  // edit, demo
 

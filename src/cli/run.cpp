@@ -25,6 +25,7 @@ int run(int argc, char** argv) {
     });
     add_devices_command(app);
     add_mhv_command(app);
+    add_import_bvh_command(app);
     add_scene_commands(app);
     add_edit_command(app);
     try {

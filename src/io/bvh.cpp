@@ -1,5 +1,7 @@
 #include "io/bvh.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -10,6 +12,13 @@
 namespace amhv {
 
 namespace {
+
+// A token as an error message may show it: binary bytes as '?', at most 40 characters.
+std::string printable(const std::string& text) {
+    std::string out;
+    for (char c : text.substr(0, 40)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+    return text.size() > 40 ? out + "..." : out;
+}
 
 struct Token {
     std::string text;
@@ -23,13 +32,13 @@ public:
         std::size_t i = 0;
         while (i < text.size()) {
             char c = text[i];
-            if (c == '\n') {
+            if (c == '\n' || (c == '\r' && (i + 1 == text.size() || text[i + 1] != '\n'))) {  // LF, CRLF or a lone CR
                 ++line;
                 ++i;
             } else if (std::isspace(static_cast<unsigned char>(c))) {
                 ++i;
             } else if (c == '#' || (c == '/' && i + 1 < text.size() && text[i + 1] == '/')) {
-                while (i < text.size() && text[i] != '\n') ++i;  // comment to end of line
+                while (i < text.size() && text[i] != '\n' && text[i] != '\r') ++i;  // comment to end of line
             } else if (c == '{' || c == '}') {
                 tokens_.push_back({std::string(1, c), line});
                 ++i;
@@ -56,7 +65,7 @@ public:
     void expect(const std::string& word) {
         int at = line();
         std::string got = take(word.c_str());
-        if (got != word) error_at(at, "expected '{}', found '{}'", word, got);
+        if (got != word) error_at(at, "expected '{}', found '{}'", word, printable(got));
     }
     double number(const char* what) {
         int at = line();
@@ -64,7 +73,7 @@ public:
         double value = 0;
         auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
         if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(value))
-            error_at(at, "{} '{}' is not a finite number", what, text);
+            error_at(at, "{} '{}' is not a finite number", what, printable(text));
         return value;
     }
     long integer(const char* what, long max) {
@@ -104,7 +113,7 @@ BvhJoint::Channel parse_channel(Tokens& tokens) {
     if (lower == "xrotation") return BvhJoint::Channel::XRotation;
     if (lower == "yrotation") return BvhJoint::Channel::YRotation;
     if (lower == "zrotation") return BvhJoint::Channel::ZRotation;
-    tokens.error_at(at, "unknown channel '{}'", name);
+    tokens.error_at(at, "unknown channel '{}'", printable(name));
 }
 
 void parse_joint(Tokens& tokens, BvhMotion& motion, int parent, bool end_site, std::string name) {
@@ -136,15 +145,31 @@ void parse_joint(Tokens& tokens, BvhMotion& motion, int parent, bool end_site, s
         int at = tokens.line();
         std::string word = tokens.take("JOINT, End Site or '}'");
         if (word == "JOINT" && !end_site) {
-            parse_joint(tokens, motion, index, false, tokens.take("a joint name"));
+            const int name_line = tokens.line();
+            std::string child = tokens.take("a joint name");
+            // Names identify joints (parts, tracks, scenes): a repeated name would make one ambiguous.
+            if (motion.joint_index(child) >= 0) tokens.error_at(name_line, "joint '{}' is defined twice", printable(child));
+            parse_joint(tokens, motion, index, false, std::move(child));
         } else if (word == "End" && !end_site) {
             tokens.expect("Site");
             parse_joint(tokens, motion, index, true, motion.joints[std::size_t(index)].name + "_end");
         } else {
-            tokens.error_at(at, "unexpected '{}' in joint {}", word, motion.joints[std::size_t(index)].name);
+            tokens.error_at(at, "unexpected '{}' in joint {}", printable(word), motion.joints[std::size_t(index)].name);
         }
     }
     tokens.expect("}");
+}
+
+bool is_rotation(BvhJoint::Channel channel) {
+    return channel == BvhJoint::Channel::XRotation || channel == BvhJoint::Channel::YRotation || channel == BvhJoint::Channel::ZRotation;
+}
+
+int axis_of(BvhJoint::Channel channel) {
+    switch (channel) {
+        case BvhJoint::Channel::XRotation: case BvhJoint::Channel::XPosition: return 0;
+        case BvhJoint::Channel::YRotation: case BvhJoint::Channel::YPosition: return 1;
+        default: return 2;
+    }
 }
 
 Eigen::Matrix3d axis_rotation(BvhJoint::Channel channel, double degrees) {
@@ -206,21 +231,150 @@ BvhMotion read_bvh(const std::filesystem::path& path) {
     motion.frame_count = int(tokens.integer("frame count", kMaxFrames));
     tokens.expect("Frame");
     tokens.expect("Time:");
+    const int frame_time_line = tokens.line();
     motion.frame_time = tokens.number("frame time");
-    if (!(motion.frame_time > 0)) tokens.error("frame time must be positive");
+    if (!(motion.frame_time > 0)) tokens.error_at(frame_time_line, "frame time must be positive");
     std::size_t total = std::size_t(motion.frame_count) * std::size_t(motion.channel_count);
     if (total > kMaxValues) tokens.error("{} frames x {} channels is too large", motion.frame_count, motion.channel_count);
     motion.values.reserve(total);
-    for (int f = 0; f < motion.frame_count; ++f)
+    // One frame per line, as the format defines: a row with too few or too many values is named
+    // by its line instead of shifting every later frame.
+    for (int f = 0; f < motion.frame_count; ++f) {
+        if (tokens.done()) tokens.error("motion block is truncated: {} of {} frames", f, motion.frame_count);
+        const int row = tokens.line();
         for (int c = 0; c < motion.channel_count; ++c) {
             if (tokens.done())
-                tokens.error("motion block is truncated: frame {} of {} has {} of {} values", f, motion.frame_count, c,
-                             motion.channel_count);
+                tokens.error_at(row, "motion block is truncated: frame {} of {} has {} of {} values", f, motion.frame_count, c,
+                                motion.channel_count);
+            if (tokens.line() != row)
+                tokens.error_at(row, "frame {} has {} values but the hierarchy declares {} channels", f, c, motion.channel_count);
             motion.values.push_back(tokens.number("motion value"));
         }
+        if (!tokens.done() && tokens.line() == row) {
+            int count = motion.channel_count;
+            while (!tokens.done() && tokens.line() == row) {
+                tokens.take("a value");
+                ++count;
+            }
+            tokens.error_at(row, "frame {} has {} values but the hierarchy declares {} channels", f, count, motion.channel_count);
+        }
+    }
     if (!tokens.done())
-        tokens.error("motion block has more values than {} frames x {} channels", motion.frame_count, motion.channel_count);
+        tokens.error("motion block has more rows than the {} frames it declares", motion.frame_count);
     if (motion.frame_count == 0) fail(path.string(), "BVH file has no motion frames");
+    return motion;
+}
+
+double BvhMotion::fps() const {
+    const double rate = 1.0 / frame_time;
+    const double whole = std::round(rate);
+    return std::abs(rate - whole) <= 1e-4 * whole ? whole : rate;
+}
+
+bool starts_with_tpose(const BvhMotion& motion) {
+    if (motion.frame_count < 2 || motion.joints.empty()) return false;
+    auto whole_rotations = [&](int frame) {
+        const double* row = motion.values.data() + std::size_t(frame) * std::size_t(motion.channel_count);
+        for (const BvhJoint& joint : motion.joints)
+            for (std::size_t c = 0; c < joint.channels.size(); ++c)
+                if (is_rotation(joint.channels[c]) && row[joint.first_channel + int(c)] != std::round(row[joint.first_channel + int(c)]))
+                    return false;
+        return true;
+    };
+    const BvhJoint& root = motion.joints.front();
+    for (std::size_t c = 0; c < root.channels.size(); ++c)
+        if (is_rotation(root.channels[c]) && motion.values[std::size_t(root.first_channel) + c] != 0.0) return false;
+    return whole_rotations(0) && !whole_rotations(1);
+}
+
+TPose parse_tpose(const std::string& text, const std::string& what) {
+    if (text == "auto") return TPose::Auto;
+    if (text == "skip") return TPose::Skip;
+    if (text == "keep") return TPose::Keep;
+    throw Error(fmt::format("{}: '{}' is not auto, skip or keep", what, text));
+}
+
+std::string_view to_string(TPose mode) {
+    switch (mode) {
+        case TPose::Auto: return "auto";
+        case TPose::Skip: return "skip";
+        case TPose::Keep: return "keep";
+    }
+    return "?";
+}
+
+BvhMotion resample_bvh(const BvhMotion& motion, double fps) {
+    if (!(fps > 0) || !std::isfinite(fps)) fail(motion.source, "cannot resample to {} frames per second", fps);
+    const double step = motion.fps() / fps;  // source frames per output frame
+    const int last = motion.frame_count - 1;
+    // Output frames whose moment lies within the take; the 1e-9 keeps the last one when the
+    // ratio is a whole number that floating point misses by an ulp.
+    const long count = long(std::floor(double(last) / step + 1e-9)) + 1;
+    if (std::size_t(count) * std::size_t(motion.channel_count) > kMaxValues)
+        fail(motion.source, "resampling to {} fps gives {} frames: too many", fps, count);
+
+    BvhMotion out = motion;
+    out.frame_time = 1.0 / fps;
+    out.frame_count = int(count);
+    out.first_frame = int(std::ceil(double(motion.first_frame) / step - 1e-9));
+    out.values.assign(std::size_t(count) * std::size_t(motion.channel_count), 0.0);
+    const std::size_t channels = std::size_t(motion.channel_count);
+    for (long k = 0; k < count; ++k) {
+        double s = double(k) * step;
+        // Moments that fall on a captured frame copy it exactly.
+        if (std::abs(s - std::round(s)) < 1e-6) s = std::round(s);
+        const int i = std::min(int(std::floor(s)), last);
+        const int j = std::min(i + 1, last);
+        const double w = s - double(i);
+        const double* a = motion.values.data() + std::size_t(i) * channels;
+        const double* b = motion.values.data() + std::size_t(j) * channels;
+        double* row = out.values.data() + std::size_t(k) * channels;
+        if (w == 0.0 || i == j) {
+            std::copy(a, a + channels, row);
+            continue;
+        }
+        for (const BvhJoint& joint : motion.joints) {
+            std::vector<std::size_t> rotations;
+            for (std::size_t c = 0; c < joint.channels.size(); ++c) {
+                const std::size_t at = std::size_t(joint.first_channel) + c;
+                if (is_rotation(joint.channels[c])) {
+                    rotations.push_back(c);
+                } else {
+                    row[at] = (1 - w) * a[at] + w * b[at];
+                }
+            }
+            const bool euler = rotations.size() == 3 && joint.channels[rotations[0]] != joint.channels[rotations[1]] &&
+                               joint.channels[rotations[1]] != joint.channels[rotations[2]];
+            if (euler) {
+                // Euler angles do not interpolate as rotations; quaternions do.
+                auto quaternion = [&](const double* values) {
+                    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+                    for (std::size_t c : rotations) r = r * axis_rotation(joint.channels[c], values[std::size_t(joint.first_channel) + c]);
+                    return Eigen::Quaterniond(r);
+                };
+                const Eigen::Matrix3d r = quaternion(a).slerp(w, quaternion(b)).toRotationMatrix();
+                const Vec3 angles = r.eulerAngles(axis_of(joint.channels[rotations[0]]), axis_of(joint.channels[rotations[1]]),
+                                                  axis_of(joint.channels[rotations[2]]));
+                for (int n = 0; n < 3; ++n) row[std::size_t(joint.first_channel) + rotations[std::size_t(n)]] = angles[n] * 180.0 / M_PI;
+            } else {
+                for (std::size_t c : rotations) {
+                    const std::size_t at = std::size_t(joint.first_channel) + c;
+                    const double turn = std::remainder(b[at] - a[at], 360.0);  // the short way round
+                    row[at] = a[at] + w * turn;
+                }
+            }
+        }
+    }
+    return out;
+}
+
+BvhMotion load_bvh(const std::filesystem::path& path, const BvhLoadOptions& options) {
+    BvhMotion motion = read_bvh(path);
+    if (options.tpose == TPose::Skip || (options.tpose == TPose::Auto && starts_with_tpose(motion))) {
+        if (motion.frame_count < 2) fail(path.string(), "cannot skip the T-pose frame: the file has only one frame");
+        motion.first_frame = 1;
+    }
+    if (options.fps > 0 && std::abs(options.fps - motion.fps()) > 1e-9 * options.fps) motion = resample_bvh(motion, options.fps);
     return motion;
 }
 

@@ -3,6 +3,7 @@
 // Tolerates CRLF/LF mixes, tabs and odd whitespace; malformed files give an error with the line.
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -28,12 +29,45 @@ struct BvhMotion {
     int frame_count = 0;
     double frame_time = 0;          // seconds
     std::vector<double> values;     // frame_count x channel_count
+    // Frames before this one are not part of the take (a converter's T-pose): they stay in
+    // `values` so frame numbers keep their meaning, but nothing uses them.
+    int first_frame = 0;
+
+    // Frames per second. Files round the frame time (CMU: .0083333), so a rate within 1e-4 of a
+    // whole number is taken as that number.
+    double fps() const;
 
     int joint_index(const std::string& name) const;  // -1 if absent
     // Global transform of every joint at `frame`, in file units and axes.
     std::vector<Eigen::Isometry3d> global_transforms(int frame) const;
 };
 
+// Reads and validates a file: one ROOT, joint names unique, every motion row on one line with
+// exactly the channels the hierarchy declares, finite values, sizes within reason.
 BvhMotion read_bvh(const std::filesystem::path& path);
+
+// True when frame 0 is a converter's T-pose rather than captured motion: the root is
+// unrotated and every rotation is a whole number of degrees (CMU's MotionBuilder-friendly files
+// start with such a T-pose), while frame 1 has fractional rotations.
+bool starts_with_tpose(const BvhMotion& motion);
+
+// What to do with such a frame 0: detect it, always skip frame 0, or keep it.
+enum class TPose { Auto, Skip, Keep };
+TPose parse_tpose(const std::string& text, const std::string& what);
+std::string_view to_string(TPose mode);
+
+// The motion at `fps` frames per second on the file's clock: frame k is the pose at k / fps
+// seconds, interpolated between the two nearest captured frames (positions linearly, joints with
+// three rotation channels by quaternion slerp, others per channel). Frame numbers therefore mean
+// the same moment at any rate; first_frame moves to the first frame at or after the old one.
+BvhMotion resample_bvh(const BvhMotion& motion, double fps);
+
+// read_bvh, then the T-pose rule and, when fps is given and differs from the file's
+// rate, resample_bvh: how scenes, `amhv mhv --bvh` and `amhv import-bvh` all load a take.
+struct BvhLoadOptions {
+    TPose tpose = TPose::Auto;
+    double fps = 0;  // 0: the file's own rate
+};
+BvhMotion load_bvh(const std::filesystem::path& path, const BvhLoadOptions& options);
 
 }  // namespace amhv

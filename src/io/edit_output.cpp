@@ -1,5 +1,6 @@
 #include "io/edit_output.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "io/ply_file.hpp"
 
 namespace amhv {
 
@@ -18,7 +20,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-const std::array<std::array<int, 3>, 2> kColour{{{230, 120, 40}, {40, 120, 230}}};
+const std::array<std::array<std::uint8_t, 3>, 2> kColour{{{230, 120, 40}, {40, 120, 230}}};
 
 double wrap_degrees(double degrees) {
     double d = std::fmod(degrees, 360.0);
@@ -36,7 +38,7 @@ std::string segment_name(const TimelineSegment& s, int index) {
 struct Shape {
     enum class Kind { Line, Circle, Text } kind = Kind::Line;
     std::vector<Eigen::Vector2d> points;  // picture coordinates (pixels, y down)
-    std::array<int, 3> colour{0, 0, 0};
+    std::array<std::uint8_t, 3> colour{0, 0, 0};
     double width = 1, radius = 0, opacity = 1;
     bool dashed = false;
     std::string text;
@@ -137,57 +139,115 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
     out << json.dump(1) << '\n';
 }
 
-int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
-    // Written directly rather than through OpenMesh: its half-edge mesh drops non-manifold faces,
-    // and an edited frame must hold exactly the captured triangles.
-    fs::create_directories(folder);
+namespace {
+
+// Both objects' meshes at output frame k, moved into the scene; A's vertices first.
+struct EditedFrame {
+    TriangleMesh both;
+    std::array<std::size_t, 3> vertices_from{}, faces_from{};  // object o owns [from[o], from[o + 1])
+};
+
+EditedFrame edited_frame(const EditResult& edit, int k, ObjectSource& a, ObjectSource& b) {
+    EditedFrame frame;
     ObjectSource* sources[2] = {&a, &b};
-    for (int k = 0; k < edit.timeline.length(); ++k) {
-        std::array<TriangleMesh, 2> meshes;
-        for (int o = 0; o < 2; ++o) {
-            const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
-            for (const BodyPart& part : sources[o]->frame_parts(e.source)) meshes[std::size_t(o)].append(part.mesh);
-            const Eigen::Rotation2Dd rotation(e.yaw);
-            for (Vec3& v : meshes[std::size_t(o)].vertices) {
-                const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
-                v = Vec3(p.x(), p.y(), v.z());
-            }
+    for (int o = 0; o < 2; ++o) {
+        const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
+        TriangleMesh mesh;
+        for (const BodyPart& part : sources[o]->frame_parts(e.source)) mesh.append(part.mesh);
+        const Eigen::Rotation2Dd rotation(e.yaw);
+        for (Vec3& v : mesh.vertices) {
+            const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
+            v = Vec3(p.x(), p.y(), v.z());
         }
-        const std::size_t va = meshes[0].vertices.size(), vb = meshes[1].vertices.size();
-        const std::size_t fa = meshes[0].triangles.size(), fb = meshes[1].triangles.size();
-        const fs::path path = folder / fmt::format("{:04d}.ply", k);
-        std::ofstream out(path, std::ios::binary);
-        if (!out) fail(path.string(), "cannot write");
-        out << "ply\nformat binary_little_endian 1.0\n"
-            << fmt::format("comment amhv edit output frame {}: A = source frame {}, B = source frame {}\n", k,
-                           edit.frames[0][std::size_t(k)].source, edit.frames[1][std::size_t(k)].source)
-            << fmt::format("comment object A: vertices 0..{}, faces 0..{}, colour 230 120 40\n", va - 1, fa - 1)
-            << fmt::format("comment object B: vertices {}..{}, faces {}..{}, colour 40 120 230\n", va, va + vb - 1, fa, fa + fb - 1)
-            << fmt::format("element vertex {}\n", va + vb)
-            << "property float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
-            << fmt::format("element face {}\n", fa + fb) << "property list uchar int vertex_indices\nend_header\n";
-        std::vector<char> bytes;
-        auto put = [&bytes](const auto& value) {
-            const char* p = reinterpret_cast<const char*>(&value);
-            bytes.insert(bytes.end(), p, p + sizeof(value));
-        };
-        static_assert(std::endian::native == std::endian::little, "the PLY writer assumes a little-endian host");
-        for (int o = 0; o < 2; ++o)
-            for (const Vec3& v : meshes[std::size_t(o)].vertices) {
-                put(float(v.x()));
-                put(float(v.y()));
-                put(float(v.z()));
-                for (int c = 0; c < 3; ++c) put(std::uint8_t(kColour[std::size_t(o)][std::size_t(c)]));
-            }
-        for (int o = 0; o < 2; ++o)
-            for (const auto& t : meshes[std::size_t(o)].triangles) {
-                put(std::uint8_t(3));
-                for (std::uint32_t i : t) put(std::int32_t(i + (o == 1 ? va : 0)));
-            }
-        out.write(bytes.data(), std::streamsize(bytes.size()));
-        if (!out) fail(path.string(), "write failed (disk full?)");
+        frame.both.append(mesh);
+        frame.vertices_from[std::size_t(o) + 1] = frame.both.vertices.size();
+        frame.faces_from[std::size_t(o) + 1] = frame.both.triangles.size();
+    }
+    return frame;
+}
+
+}  // namespace
+
+int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    fs::create_directories(folder);
+    for (int k = 0; k < edit.timeline.length(); ++k) {
+        const EditedFrame frame = edited_frame(edit, k, a, b);
+        std::vector<std::array<std::uint8_t, 3>> colours(frame.both.vertices.size(), kColour[1]);
+        std::fill(colours.begin(), colours.begin() + std::ptrdiff_t(frame.vertices_from[1]), kColour[0]);
+        std::vector<std::string> comments{fmt::format("amhv edit output frame {}: A = source frame {}, B = source frame {}", k,
+                                                      edit.frames[0][std::size_t(k)].source, edit.frames[1][std::size_t(k)].source)};
+        for (std::size_t o = 0; o < 2; ++o)
+            comments.push_back(fmt::format("object {}: vertices {}..{}, faces {}..{}, colour {} {} {}", "AB"[o], frame.vertices_from[o],
+                                           frame.vertices_from[o + 1] - 1, frame.faces_from[o], frame.faces_from[o + 1] - 1, kColour[o][0],
+                                           kColour[o][1], kColour[o][2]));
+        write_ply(folder / fmt::format("{:04d}.ply", k), frame.both, colours, comments);
     }
     return edit.timeline.length();
+}
+
+std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    fs::create_directories(folder);
+    std::vector<int> shown;
+    for (const TimelineSegment& segment : edit.timeline.segments) {
+        if (!segment.key || segment.length == 0) continue;
+        const int k = segment.first + segment.length / 2;
+        shown.push_back(k);
+        const EditedFrame frame = edited_frame(edit, k, a, b);
+        const TriangleMesh& mesh = frame.both;
+        // Look across the line between the two roots, so that the two stand side by side.
+        const Eigen::Vector2d between = edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root;
+        const Eigen::Vector2d right = between.norm() > 1e-6 ? between.normalized() : Eigen::Vector2d::UnitX();
+        const Vec3 u(right.x(), right.y(), 0), view(right.y(), -right.x(), 0);  // view: from the camera into the picture
+        Eigen::AlignedBox2d extent;
+        for (const Vec3& v : mesh.vertices) extent.extend(Eigen::Vector2d(v.dot(u), v.z()));
+        extent.extend(Eigen::Vector2d(extent.min().x(), 0.0));  // the floor
+        constexpr int kWidth = 800, kHeight = 600, kMargin = 30;
+        const double scale = std::min((kWidth - 2 * kMargin) / extent.sizes().x(), (kHeight - 2 * kMargin) / extent.sizes().y());
+        const Eigen::Vector2d offset(0.5 * (kWidth - scale * extent.sizes().x()), 0.5 * (kHeight - scale * extent.sizes().y()));
+        auto pixel = [&](const Vec3& v) {
+            return Eigen::Vector2d(offset.x() + (v.dot(u) - extent.min().x()) * scale, kHeight - offset.y() - (v.z() - extent.min().y()) * scale);
+        };
+        // Painter's algorithm: far triangles first; equal depths keep mesh order (same bytes on every run).
+        std::vector<std::pair<double, std::size_t>> order(mesh.triangles.size());
+        for (std::size_t t = 0; t < order.size(); ++t) {
+            const auto& tri = mesh.triangles[t];
+            order[t] = {-(mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]).dot(view), t};
+        }
+        std::sort(order.begin(), order.end());
+        cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kWidth, kHeight);
+        cairo_t* cr = cairo_create(surface);
+        cairo_set_source_rgb(cr, 1, 1, 1);
+        cairo_paint(cr);
+        const Vec3 light = Vec3(-view.x() * 0.8 + 0.3 * u.x(), -view.y() * 0.8 + 0.3 * u.y(), 0.6).normalized();
+        for (const auto& [depth, t] : order) {
+            const auto& tri = mesh.triangles[t];
+            const Vec3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+            if (normal.norm() < 1e-15 || normal.dot(view) > 0) continue;  // degenerate or facing away
+            const double shade = 0.35 + 0.65 * std::max(0.0, normal.normalized().dot(light));
+            const auto& colour = kColour[t < frame.faces_from[1] ? 0 : 1];
+            cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
+            for (int c = 0; c < 3; ++c) {
+                const Eigen::Vector2d p = pixel(mesh.vertices[tri[std::size_t(c)]]);
+                (c ? cairo_line_to : cairo_move_to)(cr, p.x(), p.y());
+            }
+            cairo_close_path(cr);
+            cairo_fill_preserve(cr);
+            cairo_set_line_width(cr, 0.5);  // closes the hairline gaps antialiasing leaves between triangles
+            cairo_stroke(cr);
+        }
+        const double floor_y = pixel(Vec3(0, 0, 0)).y();
+        cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
+        cairo_set_line_width(cr, 1);
+        cairo_move_to(cr, kMargin / 2.0, floor_y + 0.5);
+        cairo_line_to(cr, kWidth - kMargin / 2.0, floor_y + 0.5);
+        cairo_stroke(cr);
+        cairo_destroy(cr);
+        const fs::path path = folder / fmt::format("key_{}.png", segment.key);
+        const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
+        cairo_surface_destroy(surface);
+        if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+    }
+    return shown;
 }
 
 void write_paths_picture(const fs::path& svg, const fs::path& png, const EditResult& edit) {

@@ -2,6 +2,7 @@
 // Files of the edited scene (METHOD.md section 10): per-frame transforms, the transformed meshes of
 // every output frame, and a top view of the original and edited root paths.
 #include <filesystem>
+#include <vector>
 
 #include "edit/edit.hpp"
 #include "scene/scene.hpp"
@@ -17,6 +18,11 @@ void write_transforms_json(const std::filesystem::path& path, const Scene& scene
 // vertices first, coloured orange (230, 120, 40), then B's, blue (40, 120, 230); the header's
 // comments give each object's vertex and face ranges. Returns the number of files.
 int write_scene_frames(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+
+// `folder`/key_N.png: the middle output frame of each key segment N, the two objects' edited
+// meshes from the side (looking across the line between their roots, flat shaded, A orange, B
+// blue, the floor grey), for a quick look without a mesh viewer. Returns the frames shown.
+std::vector<int> write_key_views(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
 // paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
 // placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),

@@ -171,10 +171,19 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     const toml::node* source_node = t.get(bvh ? "bvh" : "meshes");
     if (bvh) {
         if (!fs::is_regular_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
-        BvhMotion motion = read_bvh(o.bvh);
-        o.frame_first = 0;
+        if (auto tpose = t.string("tpose")) {
+            try {
+                o.tpose = parse_tpose(*tpose, "tpose");
+            } catch (const Error&) {
+                t.error("tpose", t.get("tpose"), "'{}' is not auto, skip or keep", *tpose);
+            }
+        }
+        const std::optional<double> fps = t.number("fps", 1, 1000, false);
+        const BvhMotion motion = load_bvh(o.bvh, BvhLoadOptions{o.tpose, fps.value_or(0)});
+        o.tpose = motion.first_frame > 0 ? TPose::Skip : TPose::Keep;  // what auto found
+        o.fps = motion.fps();
+        o.frame_first = motion.first_frame;
         o.frame_last = motion.frame_count - 1;
-        o.fps = 1.0 / motion.frame_time;
     } else {
         std::vector<FrameFile> frames;
         try {
@@ -186,7 +195,10 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
         o.frame_first = frames.front().number;
         o.frame_last = frames.back().number;
     }
-    if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
+    if (!bvh) {
+        if (t.has("tpose")) t.error("tpose", t.get("tpose"), "only a BVH object has a T-pose frame");
+        if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
+    }
     // The frames the edit covers (default: all there are); key segments must lie inside.
     if (auto range = t.frame_range("frames")) {
         if ((*range)[0] < o.frame_first || (*range)[1] > o.frame_last)
@@ -411,6 +423,7 @@ std::string resolved_toml(const Scene& scene) {
         t.insert("unit", o->units.metres_per_unit);
         t.insert("up", std::string(1, "xyz"[int(o->units.up)]));
         t.insert("fps", o->fps);
+        if (!o->bvh.empty()) t.insert("tpose", std::string(to_string(o->tpose)));
         t.insert("frames", toml::array{o->frame_first, o->frame_last});
         if (!o->labels.empty()) t.insert("labels", o->labels);
         if (!o->track.empty()) t.insert("track", o->track);

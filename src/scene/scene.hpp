@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "io/bvh.hpp"
 #include "io/mesh_sequence.hpp"
 #include "sweep/interaction.hpp"
 
@@ -32,7 +33,8 @@ struct SceneObject {
     std::string meshes;                // folder or printf pattern (resolved path), or
     std::string bvh;                   // a BVH file: a body built from the bones
     UnitsAndAxes units;
-    double fps = 25;
+    double fps = 25;                   // a BVH is resampled to it (default: the file's rate)
+    TPose tpose = TPose::Auto;         // BVH: skip or keep frame 0 (resolved from auto when loaded)
     std::string labels;                // optional per-vertex part labels (pattern of text files)
     std::string track;                 // optional CSV: frame, eye xyz, gaze xyz (object units/axes)
     std::optional<double> facing_deg;  // constant facing when there is no track

@@ -131,7 +131,7 @@ double reach_from(const Amhv& volume, const Vec3& root) {
 
 ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
     if (!spec_.bvh.empty()) {
-        motion_ = read_bvh(spec_.bvh);
+        motion_ = load_bvh(spec_.bvh, BvhLoadOptions{spec_.tpose, spec_.fps});
         body_options_.units = spec_.units;
         auto samples = skeleton_track(*motion_, body_options_);
         for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];

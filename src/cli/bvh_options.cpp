@@ -1,0 +1,29 @@
+#include "cli/bvh_options.hpp"
+
+#include "core/error.hpp"
+
+namespace amhv::cli {
+
+void add_bvh_options(CLI::App& command, BvhArguments& args) {
+    command.add_option("--fps", args.fps, "BVH: resample the take to this frame rate (frame k = the pose at k/fps s; default: the file's rate)");
+    command.add_option("--tpose", args.tpose, "BVH: frame 0 is a converter's T-pose: auto (detect), skip or keep")->capture_default_str();
+}
+
+BvhLoadOptions bvh_load_options(const BvhArguments& args) {
+    if (args.fps < 0 || args.fps > 1000) throw Error(fmt::format("--fps: {} is not a frame rate in (0, 1000]", args.fps));
+    return {parse_tpose(args.tpose, "--tpose"), args.fps};
+}
+
+FrameRange bvh_frames(const BvhMotion& motion, const std::string& frames) {
+    if (frames.empty()) return {motion.first_frame, motion.frame_count - 1};
+    FrameRange range = parse_frame_range(frames, "--frames");
+    if (range.last >= motion.frame_count)
+        fail(motion.source, "--frames {}:{} goes beyond the take's {} frames (0..{})", range.first, range.last, motion.frame_count,
+             motion.frame_count - 1);
+    if (range.first < motion.first_frame)
+        fail(motion.source, "--frames {}:{} starts before frame {}, the first after the converter's T-pose (--tpose keep keeps it)",
+             range.first, range.last, motion.first_frame);
+    return range;
+}
+
+}  // namespace amhv::cli

@@ -1,0 +1,260 @@
+// BVH takes: the reader's tolerance and its errors, the T-pose rule, resampling, and
+// `amhv import-bvh` read back through the mesh, labels and track readers scenes use.
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <fmt/format.h>
+
+#include "body/skeleton_body.hpp"
+#include "core/error.hpp"
+#include "io/bvh.hpp"
+#include "scene/scene.hpp"
+#include "scene/segment.hpp"
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A root with six channels and one child with three, in a rotation order other than the root's.
+const std::string kHierarchy =
+    "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    " JOINT Chest\n {\n  OFFSET 0 1 0\n  CHANNELS 3 Yrotation Xrotation Zrotation\n  End Site\n  {\n   OFFSET 0 1 0\n  }\n }\n}\n";
+
+std::string take(const std::vector<std::string>& rows, double frame_time = 0.1) {
+    std::string text = kHierarchy + fmt::format("MOTION\nFrames: {}\nFrame Time: {}\n", rows.size(), frame_time);
+    for (const std::string& row : rows) text += row + "\n";
+    return text;
+}
+
+BvhMotion read_text_as_bvh(const fs::path& folder, const std::string& text) {
+    const fs::path path = folder / "take.bvh";
+    std::ofstream(path, std::ios::binary) << text;
+    return read_bvh(path);
+}
+
+Eigen::Quaterniond global_rotation(const BvhMotion& motion, int frame, int joint) {
+    return Eigen::Quaterniond(motion.global_transforms(frame)[std::size_t(joint)].linear());
+}
+
+TEST(Bvh, LineEndingsTabsAndCommentsDoNotChangeTheTake) {
+    test::TempDir tmp;
+    const std::string plain = take({"0.5 1 2 10.5 -20 30 5 6 7", "1 2 3 40 50 60 -7 8 9"});
+    BvhMotion reference = read_text_as_bvh(tmp.path(), plain);
+    std::string messy;
+    int line = 0;
+    for (char c : plain) {
+        if (c == ' ') {
+            messy += "\t ";
+        } else if (c == '\n') {
+            ++line;
+            messy += line % 3 == 0 ? "\r\n" : line % 3 == 1 ? "\n" : "  // a comment\r";
+        } else {
+            messy += c;
+        }
+    }
+    messy = "# exported by a tool that writes comments\r\n" + messy;
+    BvhMotion parsed = read_text_as_bvh(tmp.path(), messy);
+    ASSERT_EQ(parsed.joints.size(), reference.joints.size());
+    for (std::size_t j = 0; j < parsed.joints.size(); ++j) {
+        EXPECT_EQ(parsed.joints[j].name, reference.joints[j].name);
+        EXPECT_EQ(parsed.joints[j].offset, reference.joints[j].offset);
+        EXPECT_EQ(parsed.joints[j].channels, reference.joints[j].channels);
+    }
+    EXPECT_EQ(parsed.values, reference.values);
+    EXPECT_EQ(parsed.frame_count, 2);
+}
+
+TEST(Bvh, MalformedFilesGiveTheLineAndNeverCrash) {
+    test::TempDir tmp;
+    std::string deep = "HIERARCHY\nROOT J0\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrotation Yrotation Zrotation\n";
+    for (int j = 1; j < 1100; ++j) deep += fmt::format("JOINT J{}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Xrotation Yrotation Zrotation\n", j);
+    std::string duplicate = kHierarchy;
+    duplicate.replace(duplicate.find("JOINT Chest"), 11, "JOINT Hips");
+    std::string seven = kHierarchy;
+    seven.replace(seven.find("CHANNELS 3"), 10, "CHANNELS 7");
+    const std::string row = "0 0 0 0 0 0 0 0 0";
+    for (const auto& [content, expected] : std::vector<std::pair<std::string, std::string>>{
+             {take({"0 0 0 0 0 0 0 0", row}), ":19: frame 0 has 8 values but the hierarchy declares 9 channels"},
+             {kHierarchy + "MOTION\nFrames: 2\nFrame Time: 0.1\n" + row + "\n" + row + "\n" + row + "\n", ":21: motion block has more rows than the 2 frames"},
+             {take({row}, 0), ":18: frame time must be positive"},
+             {kHierarchy + "MOTION\nFrames: -4\nFrame Time: 0.1\n", ":17: frame count -4 is not a whole number"},
+             {kHierarchy + "MOTION\nFrames: 1e12\nFrame Time: 0.1\n", ":17: frame count"},
+             {kHierarchy + "MOTION\nFrames: 2\nFrame Time: 0.1\n" + row + "\n", ":20: motion block is truncated: 1 of 2 frames"},
+             {kHierarchy + "Frames: 2\n", ":16: expected 'MOTION', found 'Frames:'"},
+             {duplicate, ":6: joint 'Hips' is defined twice"},
+             {seven, ":9: channel count 7 is not a whole number in 0..6"},
+             {deep, ":4099: more than 1024 joints"},
+             {"", ":1: file ends where HIERARCHY was expected"},
+             {std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10), ":1: expected 'HIERARCHY'"},
+         }) {
+        try {
+            read_text_as_bvh(tmp.path(), content);
+            ADD_FAILURE() << "no error for " << expected;
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("take.bvh" + expected), std::string::npos) << e.what();
+        }
+    }
+}
+
+TEST(Bvh, TPoseIsDetectedSkippedOrKept) {
+    const fs::path cmu = test::source_dir() / "data/cmu/18_01.bvh";
+    EXPECT_TRUE(starts_with_tpose(read_bvh(cmu)));
+    EXPECT_EQ(load_bvh(cmu, {TPose::Auto, 0}).first_frame, 1);
+    EXPECT_EQ(load_bvh(cmu, {TPose::Keep, 0}).first_frame, 0);
+
+    test::TempDir tmp;
+    const std::string captured = "0.5 1 2 10.5 -20 30 5 6 7";
+    EXPECT_TRUE(starts_with_tpose(read_text_as_bvh(tmp.path(), take({"0.5 1 2 0 0 0 0 -21 0", captured}))));
+    EXPECT_FALSE(starts_with_tpose(read_text_as_bvh(tmp.path(), take({captured, captured}))));
+    EXPECT_FALSE(starts_with_tpose(read_text_as_bvh(tmp.path(), take({"0 0 0 90 0 0 0 0 0", captured}))));  // root turned
+    EXPECT_FALSE(starts_with_tpose(read_text_as_bvh(tmp.path(), take({"0 0 0 0 0 0 0 0 0", "0 0 0 0 0 0 0 1 0"}))));  // all whole
+
+    std::ofstream(tmp.path() / "one.bvh") << take({captured});
+    EXPECT_EQ(load_bvh(tmp.path() / "one.bvh", {TPose::Auto, 0}).first_frame, 0);
+    EXPECT_THROW(load_bvh(tmp.path() / "one.bvh", {TPose::Skip, 0}), Error);
+    EXPECT_THROW(parse_tpose("maybe", "--tpose"), Error);
+}
+
+TEST(Bvh, ResamplingKeepsCapturedFramesAndInterpolatesRotationsAsRotations) {
+    const fs::path cmu = test::source_dir() / "data/cmu/18_01.bvh";
+    const BvhMotion file = load_bvh(cmu, {TPose::Auto, 0});
+    EXPECT_EQ(file.fps(), 120.0);  // "Frame Time: .0083333"
+    const BvhMotion at30 = load_bvh(cmu, {TPose::Auto, 30});
+    EXPECT_EQ(at30.frame_count, 76);  // 0 .. 303/4
+    EXPECT_EQ(at30.first_frame, 1);
+    EXPECT_DOUBLE_EQ(at30.fps(), 30.0);
+    const std::size_t channels = std::size_t(file.channel_count);
+    for (int k : {1, 10, 47, 75})  // every fourth captured frame, bit for bit
+        EXPECT_TRUE(std::equal(at30.values.begin() + std::ptrdiff_t(std::size_t(k) * channels),
+                               at30.values.begin() + std::ptrdiff_t(std::size_t(k + 1) * channels),
+                               file.values.begin() + std::ptrdiff_t(std::size_t(4 * k) * channels)))
+            << k;
+
+    // Upsampling a two-frame take fourfold: the middle frame is the slerp midpoint of every joint.
+    test::TempDir tmp;
+    const BvhMotion two = read_text_as_bvh(tmp.path(), take({"0 0 0 10 80 -30 60 45 -20", "1 2 -3 -50 20 40 -70 10 90"}));
+    const BvhMotion fine = resample_bvh(two, 40);
+    ASSERT_EQ(fine.frame_count, 5);
+    for (int joint = 0; joint < 2; ++joint) {
+        const Eigen::Quaterniond expected = global_rotation(two, 0, 0).slerp(0.5, global_rotation(two, 1, 0));
+        const Eigen::Quaterniond local0 = global_rotation(two, 0, 0).inverse() * global_rotation(two, 0, 1);
+        const Eigen::Quaterniond local1 = global_rotation(two, 1, 0).inverse() * global_rotation(two, 1, 1);
+        const Eigen::Quaterniond got_root = global_rotation(fine, 2, 0);
+        const Eigen::Quaterniond got_local = got_root.inverse() * global_rotation(fine, 2, 1);
+        if (joint == 0) {
+            EXPECT_LT(got_root.angularDistance(expected), 1e-9);
+        } else {
+            EXPECT_LT(got_local.angularDistance(local0.slerp(0.5, local1)), 1e-9);
+        }
+    }
+    EXPECT_LT((fine.global_transforms(2)[0].translation() - Vec3(0.5, 1, -1.5)).norm(), 1e-12);
+    EXPECT_LT((fine.global_transforms(1)[0].translation() - Vec3(0.25, 0.5, -0.75)).norm(), 1e-12);
+    EXPECT_TRUE(std::equal(fine.values.end() - 9, fine.values.end(), two.values.end() - 9));
+
+    // A turn across +-180 degrees goes the short way: halfway between 170 and -170 is 180, not 0.
+    const BvhMotion across = read_text_as_bvh(tmp.path(), take({"0 0 0 170 0 0 0 0 0", "0 0 0 -170 0 0 0 0 0"}));
+    const Eigen::AngleAxisd half(global_rotation(resample_bvh(across, 20), 1, 0));
+    EXPECT_NEAR(std::abs(half.angle()), M_PI, 1e-9);
+
+    EXPECT_THROW(resample_bvh(two, 0), Error);
+}
+
+int one_line_error(const test::CommandResult& result) {
+    return result.exit_code != 0 && result.output.rfind("amhv: error: ", 0) == 0 ? int(std::count(result.output.begin(), result.output.end(), '\n'))
+                                                                                : -1;
+}
+
+TEST(ImportBvh, WritesMeshesLabelsAndTrackThatScenesReadBack) {
+    test::TempDir tmp;
+    const fs::path bvh = test::source_dir() / "data/cmu/19_01.bvh";
+    const fs::path out = tmp.path() / "b";
+    auto result = test::run_amhv(fmt::format("import-bvh '{}' --fps 30 --frames 20:40 --out '{}'", bvh.string(), out.string()));
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+
+    const BvhMotion motion = load_bvh(bvh, {TPose::Auto, 30});
+    const SkeletonBodyOptions options;
+    const auto track = skeleton_track(motion, options);
+    std::ifstream csv(out / "track.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line[0], '#');
+    for (int f = 20; f <= 40; ++f) {
+        const fs::path ply = out / fmt::format("meshes/frame_{:04d}.ply", f);
+        const TriangleMesh expected = skeleton_body(motion, f, options);
+        const TriangleMesh read = read_mesh(ply, UnitsAndAxes{1.0, UpAxis::Z});
+        ASSERT_EQ(read.vertices.size(), expected.vertices.size()) << ply;
+        EXPECT_EQ(read.triangles, expected.triangles) << ply;
+        double worst = 0;
+        for (std::size_t v = 0; v < read.vertices.size(); ++v) worst = std::max(worst, (read.vertices[v] - expected.vertices[v]).norm());
+        EXPECT_LT(worst, 1e-6) << ply;  // float storage
+
+        std::ifstream labels(out / fmt::format("labels/frame_{:04d}.txt", f));
+        std::vector<std::string> names;
+        for (std::string name; labels >> name;) names.push_back(name);
+        std::vector<std::string> expected_names;
+        for (const BodyPart& part : skeleton_body_parts(motion, f, options))
+            expected_names.insert(expected_names.end(), part.mesh.vertices.size(), part.name);
+        EXPECT_EQ(names, expected_names);
+
+        ASSERT_TRUE(std::getline(csv, line));
+        std::replace(line.begin(), line.end(), ',', ' ');
+        std::istringstream fields(line);
+        int frame = -1;
+        Vec3 eye, gaze;
+        fields >> frame >> eye.x() >> eye.y() >> eye.z() >> gaze.x() >> gaze.y() >> gaze.z();
+        EXPECT_EQ(frame, f);
+        EXPECT_LT((eye - track[std::size_t(f)].eye).norm(), 1e-8);
+        EXPECT_LT((gaze - track[std::size_t(f)].gaze).norm(), 1e-8);
+    }
+    EXPECT_FALSE(std::getline(csv, line));
+
+    // object.toml, pasted into a scene, makes an object with the BVH body's parts and track.
+    std::string object = test::read_text(out / "object.toml");
+    for (const char* key : {"meshes = \"", "labels = \"", "track = \""}) object.replace(object.find(key), std::string(key).size(), std::string(key) + "b/");
+    const fs::path scene_file = tmp.path() / "scene.toml";
+    std::ofstream(scene_file) << fmt::format(
+        "[sampling]\nvoxel = 0.04\nangle_step_deg = 30\n\n[objects.A]\nbvh = '{}'\n\n[objects.B]\n{}\n"
+        "[[segments]]\na = [100, 140]\nb = [25, 35]\ntype = \"0&0a\"\n"
+        "interest = {{ A = {{ parts = [\"right_hand\"] }}, B = {{ parts = [\"right_hand\"] }} }}\n",
+        (test::source_dir() / "data/cmu/18_01.bvh").string(), object);
+    const Scene scene = load_scene(scene_file);
+    EXPECT_EQ(scene.b.frame_first, 20);
+    EXPECT_EQ(scene.b.frame_last, 40);
+    EXPECT_EQ(scene.b.fps, 30.0);
+    EXPECT_EQ(scene.a.tpose, TPose::Skip);
+    ObjectSource imported(scene.b);
+    std::vector<std::string> parts;
+    for (const BodyPart& part : imported.frame_parts(30)) parts.push_back(part.name);
+    std::vector<std::string> expected_parts;
+    for (const BodyPart& part : skeleton_body_parts(motion, 30, options)) expected_parts.push_back(part.name);
+    EXPECT_EQ(parts, expected_parts);
+    ASSERT_TRUE(imported.track(30).has_value());
+    EXPECT_LT((imported.track(30)->eye - track[30].eye).norm(), 1e-8);
+}
+
+TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
+    test::TempDir tmp;
+    const std::string bvh = (test::source_dir() / "data/cmu/19_01.bvh").string();
+    const std::string out = (tmp.path() / "o").string();
+    std::ofstream(tmp.path() / "broken.bvh") << take({"0 0 0 0 0 0 0 0 0", "1 2 3"});
+    for (const auto& [arguments, expected] : std::vector<std::pair<std::string, std::string>>{
+             {fmt::format("import-bvh '{}/none.bvh' --out '{}'", tmp.path().string(), out), "none.bvh: cannot open BVH file"},
+             {fmt::format("import-bvh '{}/broken.bvh' --out '{}'", tmp.path().string(), out), "broken.bvh:20: motion block is truncated"},
+             {fmt::format("import-bvh '{}' --frames 0:10 --out '{}'", bvh, out), "starts before frame 1, the first after the converter's T-pose"},
+             {fmt::format("import-bvh '{}' --frames 300:400 --out '{}'", bvh, out), "goes beyond the take's 304 frames"},
+             {fmt::format("import-bvh '{}' --tpose maybe --out '{}'", bvh, out), "--tpose: 'maybe' is not auto, skip or keep"},
+             {fmt::format("import-bvh '{}' --fps -3 --out '{}'", bvh, out), "--fps: -3 is not a frame rate"},
+             {fmt::format("import-bvh '{}' --unit furlong --out '{}'", bvh, out), "--unit: unit 'furlong'"},
+         }) {
+        auto result = test::run_amhv(arguments);
+        EXPECT_EQ(one_line_error(result), 1) << result.output;
+        EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
+        EXPECT_FALSE(fs::exists(out));
+    }
+}
+
+}  // namespace
+}  // namespace amhv
