@@ -11,6 +11,7 @@
 #include "gpu/sweep_vulkan.hpp"
 #include "reference/sweep_reference.hpp"
 #include "reference/voxelise_reference.hpp"
+#include "sweep/column_volume.hpp"
 #include "sweep/objects.hpp"
 #include "support.hpp"
 
@@ -132,6 +133,7 @@ TEST(Sweep, RandomScenesMatchReference) {
     std::uniform_real_distribution<double> u(-1, 1);
     const char* types[] = {"+&-", "-&+", "+&+", "-&-", "+&0", "0&+", "-&0", "0&-", "0&0a", "0&0b", "0&0c"};
     std::uint64_t total_solutions = 0, total_dictionary = 0, total_fidelity = 0, total_visibility = 0;
+    std::uint64_t poses_entering = 0, poses_tested_one_by_one = 0;
     for (int scene = 0; scene < 22; ++scene) {
         const double h = 0.03;
         const int frames = 5 + scene % 7;
@@ -168,6 +170,18 @@ TEST(Sweep, RandomScenesMatchReference) {
         auto both = sweep_both(problem);
         SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 11]);
         expect_identical(both);
+        // The block pre-test is exact at any block size, and off (1) it is the plain per-pose sweep.
+        for (int block : {1, 3}) {
+            gpu::VulkanSweeper sweeper(test::context(), {.block = block});
+            EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "block " << block;
+            test::expect_no_validation_messages();
+        }
+        gpu::VulkanSweeper blocked(test::context());
+        blocked.sweep(problem);
+        for (int stage = 0; stage < 4; ++stage) {
+            poses_entering += blocked.last_stats().poses_per_stage[std::size_t(stage)];
+            poses_tested_one_by_one += blocked.last_stats().pose_tests_per_stage[std::size_t(stage)];
+        }
         total_solutions += both.gpu.solutions;
         total_dictionary += both.gpu.rejected[1];
         total_fidelity += both.gpu.rejected[2];
@@ -178,6 +192,8 @@ TEST(Sweep, RandomScenesMatchReference) {
     EXPECT_GT(total_dictionary, 0u);
     EXPECT_GT(total_fidelity, 0u);
     EXPECT_GT(total_visibility, 0u);
+    // Blocks decide most poses: fewer than half are tested one by one.
+    EXPECT_LT(2 * poses_tested_one_by_one, poses_entering) << poses_tested_one_by_one << " of " << poses_entering;
 }
 
 // Work split into many small items (a tiny loop budget) must not change a single outcome, and the
@@ -204,7 +220,7 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         // Per pose the fidelity test alone visits about 60 x 60 columns x 3 words x 41 slots.
         auto both = sweep_both(problem);
         expect_identical(both);
-        gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200});
+        gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200, .block = 2});
         SweepResult split = tiny.sweep(problem);
         test::expect_no_validation_messages();
         EXPECT_EQ(split.outcomes, both.reference.outcomes);
@@ -215,6 +231,40 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         if (std::string(type) == "0&0a") {
             EXPECT_GT(both.gpu.rejected[1], 0u);
         }
+    }
+}
+
+// Pooling over a block of offsets: every column of the result is the OR of the block's columns.
+TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
+    std::mt19937 random(7);
+    ColumnVolume volume;
+    volume.x0 = -5;
+    volume.y0 = 17;
+    volume.nx = 13;
+    volume.ny = 11;
+    volume.slots = 3;
+    volume.zwords = 2;
+    volume.bits.assign(std::size_t(volume.nx) * std::size_t(volume.ny) * volume.column_words(), 0u);
+    for (auto& word : volume.bits)
+        if (random() % 5 == 0) word = std::uint32_t(random()) & std::uint32_t(random());
+    volume.finish();
+    for (int block : {1, 2, 4, 8}) {
+        const ColumnVolume d = dilated_columns(volume, block);
+        ASSERT_EQ(d.x0, volume.x0 - (block - 1));
+        ASSERT_EQ(d.nx, volume.nx + block - 1);
+        ASSERT_EQ(d.ny, volume.ny + block - 1);
+        for (int y = 0; y < d.ny; ++y)
+            for (int x = 0; x < d.nx; ++x)
+                for (std::size_t w = 0; w < volume.column_words(); ++w) {
+                    std::uint32_t expected = 0;
+                    for (int dy = 0; dy < block; ++dy)
+                        for (int dx = 0; dx < block; ++dx) {
+                            // Global column d.x0 + x + dx of the original.
+                            const std::int64_t ox = d.x0 + x + dx - volume.x0, oy = d.y0 + y + dy - volume.y0;
+                            if (ox >= 0 && oy >= 0 && ox < volume.nx && oy < volume.ny) expected |= volume.column(int(ox), int(oy))[w];
+                        }
+                    ASSERT_EQ(d.column(x, y)[w], expected) << block << " " << x << " " << y << " " << w;
+                }
     }
 }
 

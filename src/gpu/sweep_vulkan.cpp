@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <map>
 #include <memory>
 
 #include "core/error.hpp"
@@ -125,15 +126,34 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z, false)), 0, Want::Overlap});
     }
 
+    // Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
+    // (dilated_columns). Pooled volumes are shared like the volumes they come from.
+    const int block = std::max(1, options_.block);
+    std::vector<std::vector<OverlapTest>> block_stages(4);
+    if (block > 1) {
+        std::map<const GpuVolume*, GpuVolume*> pooled;
+        for (std::size_t s = 0; s < stages.size(); ++s)
+            for (OverlapTest test : stages[s]) {
+                auto [it, added] = pooled.emplace(test.fixed, nullptr);
+                if (added) it->second = add(dilated_columns(test.fixed->columns, block));
+                test.fixed = it->second;
+                block_stages[s].push_back(test);
+            }
+    }
+    auto for_each_test = [&](const auto& visit) {
+        for (const auto* all : {&stages, &block_stages})
+            for (const auto& stage : *all)
+                for (const OverlapTest& test : stage) visit(test);
+    };
+
     // ---- per moving volume: every angle's rotation and mapped bounds ----
     const PoseRange& range = problem.range;
     const auto root_a = problem.root_a_q(), root_b = problem.root_b_q();
     std::vector<posemap::Trig> trig(std::size_t(range.angles));
     for (int k = 0; k < range.angles; ++k) trig[std::size_t(k)] = problem.trig(k);
-    for (const auto& stage : stages)
-        for (const OverlapTest& test : stage) {
+    for_each_test([&](const OverlapTest& test) {
             if (test.fixed->columns.slots != test.moving->columns.slots) fail("sweep", "internal: slot counts differ in one test");
-            if (test.moving->angles) continue;
+            if (test.moving->angles) return;
             std::vector<std::uint8_t> table(32 + std::size_t(range.angles) * sizeof(GpuAngle));
             std::int64_t roots[4] = {root_a[0], root_a[1], root_b[0], root_b[1]};
             std::memcpy(table.data(), roots, sizeof(roots));
@@ -144,10 +164,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 std::memcpy(table.data() + 32 + std::size_t(k) * sizeof(GpuAngle), &angle, sizeof(angle));
             }
             test.moving->angles = upload_to_host(context_, table.data(), table.size());
-        }
-    for (const auto& stage : stages)
-        for (const OverlapTest& test : stage) {
-            if (test.want != Want::EveryFrame) continue;
+        });
+    for_each_test([&](const OverlapTest& test) {
+            if (test.want != Want::EveryFrame) return;
             if (!test.fixed->frame_boxes) {
                 const auto& boxes = test.fixed->columns.slot_boxes;
                 test.fixed->frame_boxes = upload_to_host(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
@@ -160,7 +179,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                         boxes.push_back(mapped_bounds(m, m.slot_boxes[std::size_t(1 + t)], trig[std::size_t(k)], root_a, root_b));
                 test.moving->angle_frame_boxes = upload_to_host(context_, boxes.data(), boxes.size() * 16);
             }
-        }
+        });
 
     // Work blocks per test: loop iterations per item stay under the budget.
     auto blocks_of = [&](const OverlapTest& test) {
@@ -199,12 +218,13 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     Buffer no_poses(context_, 16, Buffer::Memory::Host);
 
     // Runs every test of `stage` on `pose_list` (or, when null, on the `implicit_count` poses of the
-    // range starting at angle `angle_first`) and returns, per pose, whether it passes them all.
+    // range starting at angle `angle_first`) and returns, per test and pose, whether the pose meets
+    // the test's criterion (`Want`).
     auto run_stage = [&](const std::vector<OverlapTest>& stage, const std::vector<std::array<std::int32_t, 4>>* pose_list,
                          std::uint64_t implicit_count, int angle_first) {
         const std::uint64_t count = pose_list ? pose_list->size() : implicit_count;
-        std::vector<std::uint8_t> passes(count, 1);
-        if (count == 0 || stage.empty()) return passes;
+        std::vector<std::vector<std::uint8_t>> meets(stage.size(), std::vector<std::uint8_t>(count, 1));
+        if (count == 0 || stage.empty()) return meets;
         std::uint64_t flag_words_total = 0;
         std::vector<std::uint64_t> offsets;
         for (const OverlapTest& test : stage) {
@@ -262,17 +282,16 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 } else {
                     ok = (w[0] != 0) == (test.want == Want::Overlap);
                 }
-                if (!ok) passes[p] = 0;
+                meets[t][p] = ok;
             }
         }
-        return passes;
+        return meets;
     };
 
     // Batches of angles small enough for the flag buffer and 32-bit item counts.
     const std::uint64_t per_angle = std::uint64_t(range.width()) * range.height();
     std::uint64_t max_items = 1;
-    for (const auto& stage : stages)
-        for (const OverlapTest& test : stage) max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose));
+    for_each_test([&](const OverlapTest& test) { max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose)); });
     const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options_.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
     if (per_angle > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle, max_poses);
     const int angles_per_batch = int(std::max<std::uint64_t>(1, max_poses / per_angle));
@@ -280,6 +299,68 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     auto outcome_index = [&](const std::array<std::int32_t, 4>& p) {
         return (std::size_t(p[0]) * range.height() + std::size_t(p[2] - range.j_first)) * range.width() + std::size_t(p[1] - range.i_first);
     };
+    using Pose = std::array<std::int32_t, 4>;  // angle, i, j, unused
+    const int blocks_x = (range.width() + block - 1) / block, blocks_y = (range.height() + block - 1) / block;
+    auto passes_all = [](const std::vector<std::vector<std::uint8_t>>& meets, std::size_t p) {
+        return std::all_of(meets.begin(), meets.end(), [p](const auto& m) { return m[p] != 0; });
+    };
+    // What a block pre-test proves for every pose of its block: a pooled "no overlap" makes an
+    // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
+    enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
+    auto block_verdicts = [&](int stage, const std::vector<Pose>& bases) {
+        std::vector<Verdict> verdicts(bases.size(), Verdict::Pass);
+        if (bases.empty()) return verdicts;
+        stats_.blocks_per_stage[std::size_t(stage)] += bases.size();
+        const auto& tests = block_stages[std::size_t(stage)];
+        const auto meets = run_stage(tests, &bases, 0, 0);
+        for (std::size_t b = 0; b < bases.size(); ++b)
+            for (std::size_t t = 0; t < tests.size(); ++t) {
+                if (verdicts[b] == Verdict::Fail) break;
+                const bool proven = tests[t].want == Want::NoOverlap ? meets[t][b] != 0 : meets[t][b] == 0;
+                if (proven && tests[t].want != Want::NoOverlap) verdicts[b] = Verdict::Fail;
+                else if (!proven) verdicts[b] = Verdict::Undecided;
+            }
+        return verdicts;
+    };
+    // Decides stage `stage` (1..3) for `candidates` of the batch starting at `angle_first`: blocks
+    // first, then pose by pose where a block is undecided. Returns per candidate whether it passes.
+    auto decide = [&](int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles) {
+        std::vector<std::uint8_t> passes(candidates.size(), 1);
+        if (stages[std::size_t(stage)].empty() || candidates.empty()) return passes;
+        std::vector<std::size_t> undecided;
+        if (block > 1) {
+            std::vector<std::int32_t> block_of(std::size_t(batch_angles) * std::size_t(blocks_x) * std::size_t(blocks_y), -1);
+            std::vector<Pose> bases;
+            std::vector<std::int32_t> pose_block(candidates.size());
+            for (std::size_t p = 0; p < candidates.size(); ++p) {
+                const Pose& q = candidates[p];
+                const int bi = (q[1] - range.i_first) / block, bj = (q[2] - range.j_first) / block;
+                const std::size_t key = (std::size_t(q[0] - angle_first) * std::size_t(blocks_y) + std::size_t(bj)) * std::size_t(blocks_x) + std::size_t(bi);
+                if (block_of[key] < 0) {
+                    block_of[key] = std::int32_t(bases.size());
+                    bases.push_back({q[0], range.i_first + bi * block, range.j_first + bj * block, 0});
+                }
+                pose_block[p] = block_of[key];
+            }
+            const std::vector<Verdict> verdicts = block_verdicts(stage, bases);
+            for (std::size_t p = 0; p < candidates.size(); ++p) {
+                const Verdict v = verdicts[std::size_t(pose_block[p])];
+                if (v == Verdict::Fail) passes[p] = 0;
+                else if (v == Verdict::Undecided) undecided.push_back(p);
+            }
+        } else {
+            undecided.resize(candidates.size());
+            for (std::size_t p = 0; p < candidates.size(); ++p) undecided[p] = p;
+        }
+        std::vector<Pose> list;
+        list.reserve(undecided.size());
+        for (std::size_t p : undecided) list.push_back(candidates[p]);
+        stats_.pose_tests_per_stage[std::size_t(stage)] += list.size();
+        const auto meets = run_stage(stages[std::size_t(stage)], &list, 0, 0);
+        for (std::size_t u = 0; u < undecided.size(); ++u) passes[undecided[u]] = passes_all(meets, u);
+        return passes;
+    };
+
     for (int angle_first = 0; angle_first < range.angles; angle_first += angles_per_batch) {
         const int batch_angles = std::min(angles_per_batch, range.angles - angle_first);
         const std::uint64_t batch_poses = per_angle * std::uint64_t(batch_angles);
@@ -290,19 +371,39 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             total += std::chrono::duration<double>(now - clock).count();
             clock = now;
         };
-        auto contact = run_stage(stages[0], nullptr, batch_poses, angle_first);
-        std::vector<std::array<std::int32_t, 4>> survivors;
-        for (std::uint64_t p = 0; p < batch_poses; ++p) {
-            if (!contact[p]) continue;
-            std::uint64_t rest = p % per_angle;
-            survivors.push_back({angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
-                                 range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0});
+        // Contact on every pose of the batch: by block where blocks are on, then pose by pose.
+        std::vector<Pose> survivors;
+        if (block > 1) {
+            std::vector<Pose> bases;
+            for (int k = angle_first; k < angle_first + batch_angles; ++k)
+                for (int bj = 0; bj < blocks_y; ++bj)
+                    for (int bi = 0; bi < blocks_x; ++bi) bases.push_back({k, range.i_first + bi * block, range.j_first + bj * block, 0});
+            const std::vector<Verdict> verdicts = block_verdicts(0, bases);
+            std::vector<Pose> candidates;
+            for (std::size_t b = 0; b < bases.size(); ++b) {
+                if (verdicts[b] == Verdict::Fail) continue;
+                for (int j = bases[b][2]; j < std::min(bases[b][2] + block, range.j_last + 1); ++j)
+                    for (int i = bases[b][1]; i < std::min(bases[b][1] + block, range.i_last + 1); ++i) candidates.push_back({bases[b][0], i, j, 0});
+            }
+            stats_.pose_tests_per_stage[0] += candidates.size();
+            const auto meets = run_stage(stages[0], &candidates, 0, 0);
+            for (std::size_t p = 0; p < candidates.size(); ++p)
+                if (passes_all(meets, p)) survivors.push_back(candidates[p]);
+        } else {
+            stats_.pose_tests_per_stage[0] += batch_poses;
+            const auto meets = run_stage(stages[0], nullptr, batch_poses, angle_first);
+            for (std::uint64_t p = 0; p < batch_poses; ++p) {
+                if (!passes_all(meets, p)) continue;
+                std::uint64_t rest = p % per_angle;
+                survivors.push_back({angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
+                                     range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0});
+            }
         }
         lap(stats_.seconds_per_stage[0]);
         for (int stage = 1; stage < 4; ++stage) {
             stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
-            auto passes = run_stage(stages[std::size_t(stage)], &survivors, 0, 0);
-            std::vector<std::array<std::int32_t, 4>> next;
+            const auto passes = decide(stage, survivors, angle_first, batch_angles);
+            std::vector<Pose> next;
             for (std::size_t p = 0; p < survivors.size(); ++p) {
                 if (passes[p]) next.push_back(survivors[p]);
                 else result.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);

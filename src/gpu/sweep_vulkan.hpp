@@ -2,8 +2,9 @@
 // The placement sweep in compute shaders (METHOD.md sections 4-5). The host turns the volumes into
 // column bitsets (sweep/column_volume.hpp) once, then runs the constraints as stages of overlap
 // tests (shaders/sweep_overlap.comp) over batches of poses: contact on every pose of the range,
-// then the dictionary on the poses in contact, fidelity on those, visibility on those. It only
-// reads back one flag word per pose and test to decide which poses go on to the next stage.
+// then the dictionary on the poses in contact, fidelity on those, visibility on those. Each stage
+// first decides whole blocks of offsets with OR-pooled volumes where it can, then tests the rest
+// pose by pose. It only reads back one flag word per pose (or block) and test.
 #include <array>
 #include <cstdint>
 
@@ -16,6 +17,10 @@ struct SweeperOptions {
     std::uint64_t max_poses_per_batch = std::uint64_t(1) << 22;
     // Loop iterations one invocation may run (lavapipe silently stops loops after about 65,535).
     std::uint32_t loop_budget = 32768;
+    // Offsets per side of the exact block pre-test (1: off). Each stage first tests one pose per
+    // block of block x block offsets against the fixed volumes OR-pooled over the block; a block
+    // whose pooled test proves "no overlap" is decided for all its poses at once.
+    int block = 8;
 };
 
 struct SweepStats {
@@ -23,6 +28,8 @@ struct SweepStats {
     std::uint64_t submits = 0;
     std::array<std::uint64_t, 4> poses_per_stage{};  // poses entering contact, dictionary, fidelity, visibility
     std::array<double, 4> seconds_per_stage{};        // wall time of each stage, host work included
+    std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
+    std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
 };
 
 class VulkanSweeper : public Sweeper {

@@ -128,6 +128,43 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
     return c;
 }
 
+ColumnVolume dilated_columns(const ColumnVolume& volume, int block) {
+    if (block < 1) fail("sweep", "internal: block size {} is not positive", block);
+    const int grow = block - 1;
+    ColumnVolume d;
+    d.x0 = volume.x0 - grow;
+    d.y0 = volume.y0 - grow;
+    d.nx = volume.nx + grow;
+    d.ny = volume.ny + grow;
+    d.slots = volume.slots;
+    d.zwords = volume.zwords;
+    const std::size_t words = volume.column_words();
+    // Separable: OR along x into `rows_pooled` (new x, old y), then along y.
+    std::vector<std::uint32_t> rows_pooled(std::size_t(d.nx) * std::size_t(volume.ny) * words, 0u);
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < volume.nx; ++x) {
+            const std::uint32_t* source = volume.column(x, y);
+            if (std::none_of(source, source + words, [](std::uint32_t w) { return w != 0; })) continue;
+            // Old column x lands in new columns v with v - grow <= x <= v, i.e. v in [x, x + grow].
+            for (int v = x; v <= x + grow; ++v) {
+                std::uint32_t* target = rows_pooled.data() + (std::size_t(y) * std::size_t(d.nx) + std::size_t(v)) * words;
+                for (std::size_t w = 0; w < words; ++w) target[w] |= source[w];
+            }
+        }
+    d.bits.assign(std::size_t(d.nx) * std::size_t(d.ny) * words, 0u);
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < d.nx; ++x) {
+            const std::uint32_t* source = rows_pooled.data() + (std::size_t(y) * std::size_t(d.nx) + std::size_t(x)) * words;
+            if (std::none_of(source, source + words, [](std::uint32_t w) { return w != 0; })) continue;
+            for (int v = y; v <= y + grow; ++v) {
+                std::uint32_t* target = d.column(x, v);
+                for (std::size_t w = 0; w < words; ++w) target[w] |= source[w];
+            }
+        }
+    d.finish();
+    return d;
+}
+
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
                                           const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b) {
     return mapped_bounds(moving, {moving.x_first, moving.y_first, moving.x_last, moving.y_last}, trig, root_a, root_b);

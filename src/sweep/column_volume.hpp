@@ -53,6 +53,13 @@ ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::funct
 // Union plus, per frame t, the voxels with t_start <= t (`started_by`) or with t_end >= t.
 ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool started_by);
 
+// The volume OR-pooled over a block of `block` x `block` offsets: column v of the result is the OR
+// of columns v .. v + block - 1 (in x and in y) of `volume`, every slot. A pose (i0, j0, theta)
+// finds no overlap between the result and a moving volume only if no pose (i0 + di, j0 + dj,
+// theta), 0 <= di, dj < block, finds one with `volume`: one test proves "no overlap" for the
+// whole block (exact culling; see sweep_vulkan.cpp).
+ColumnVolume dilated_columns(const ColumnVolume& volume, int block);
+
 // Conservative bounding box [x_first, y_first, x_last, y_last] (global A lattice) of the A columns
 // that the pull mapping of angle `trig` (pose offset 0) sends into an occupied column of `moving`.
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
