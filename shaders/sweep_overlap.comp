@@ -45,7 +45,10 @@ layout(push_constant) uniform Params {
     int static_x0, static_y0, static_nx, static_ny;
     int moving_x0, moving_y0, moving_nx, moving_ny;
     int slots, zwords, frames, mode;
-    int columns_per_item, rows_per_item, items_x, items_per_pose;
+    int columns_per_item, rows_per_item, items_x;
+    // This dispatch runs work items chunk_first .. chunk_first + chunks_in_wave - 1 of each pose: the
+    // host sends a pose's items in waves and drops the poses an earlier wave already decided.
+    int chunk_first, chunks_in_wave;
     // Implicit poses (explicit_poses == 0): every (i, j) of the range for angles angle_first...
     int range_i0, range_j0, range_ni, range_nj;
     int angle_first, explicit_poses, flag_words, flag_offset;
@@ -59,8 +62,8 @@ layout(push_constant) uniform Params {
 void main() {
     uint item = params.item_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.item_count) return;
-    uint pose = item / uint(params.items_per_pose);
-    int chunk = int(item % uint(params.items_per_pose));
+    uint pose = item / uint(params.chunks_in_wave);
+    int chunk = params.chunk_first + int(item % uint(params.chunks_in_wave));
 
     ivec3 p;  // angle, i, j
     if (params.explicit_poses != 0) {

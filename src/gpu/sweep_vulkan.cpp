@@ -19,7 +19,8 @@ struct OverlapParams {
     std::int32_t static_x0, static_y0, static_nx, static_ny;
     std::int32_t moving_x0, moving_y0, moving_nx, moving_ny;
     std::int32_t slots, zwords, frames, mode;
-    std::int32_t columns_per_item, rows_per_item, items_x, items_per_pose;
+    std::int32_t columns_per_item, rows_per_item, items_x;
+    std::int32_t chunk_first, chunks_in_wave;
     std::int32_t range_i0, range_j0, range_ni, range_nj;
     std::int32_t angle_first, explicit_poses, flag_words, flag_offset;
     std::int32_t word_first, word_last;
@@ -219,60 +220,86 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
 
     // Runs every test of `stage` on `pose_list` (or, when null, on the `implicit_count` poses of the
     // range starting at angle `angle_first`) and returns, per test and pose, whether the pose meets
-    // the test's criterion (`Want`).
+    // the test's criterion (`Want`). A pose's work items go out in waves (one block of frames, or a
+    // quarter of the columns, at a time); a pose that a wave decides (an overlap found; a frame
+    // without one) is not sent again, since items cannot tell each other to stop.
     auto run_stage = [&](const std::vector<OverlapTest>& stage, const std::vector<std::array<std::int32_t, 4>>* pose_list,
                          std::uint64_t implicit_count, int angle_first) {
         const std::uint64_t count = pose_list ? pose_list->size() : implicit_count;
         std::vector<std::vector<std::uint8_t>> meets(stage.size(), std::vector<std::uint8_t>(count, 1));
         if (count == 0 || stage.empty()) return meets;
-        std::uint64_t flag_words_total = 0;
-        std::vector<std::uint64_t> offsets;
-        for (const OverlapTest& test : stage) {
-            offsets.push_back(flag_words_total);
-            flag_words_total += count * std::uint64_t(test.flag_words());
-        }
-        ensure_host_capacity(context_, flags, flag_words_total * 4);
-        if (pose_list) {
-            ensure_host_capacity(context_, poses, pose_list->size() * 16);
-            std::memcpy(poses->mapped<std::uint8_t>().data(), pose_list->data(), pose_list->size() * 16);
-        }
-        sequence.fill(*flags, flag_words_total * 4, 0u);
-        // The clear must land before the tests OR their flags in.
-        sequence.barrier();
-        std::vector<vk::raii::DescriptorSet> sets;
+        auto pose_at = [&](std::uint64_t p) -> std::array<std::int32_t, 4> {
+            if (pose_list) return (*pose_list)[p];
+            const std::uint64_t per_angle = std::uint64_t(range.width()) * std::uint64_t(range.height()), rest = p % per_angle;
+            return {angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
+                    range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0};
+        };
         for (std::size_t t = 0; t < stage.size(); ++t) {
             const OverlapTest& test = stage[t];
             const ColumnVolume& s = test.fixed->columns;
             const ColumnVolume& m = test.moving->columns;
-            Blocks b = blocks_of(test);
-            sets.push_back(overlap_.bind({test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(),
-                                          test.moving->angles.get(), pose_list ? poses.get() : &no_poses, flags.get(),
-                                          test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses,
-                                          test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses}));
-            OverlapParams params{0, 0,
-                                 std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
-                                 std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
-                                 s.slots, s.zwords, test.frames, test.mode(),
-                                 b.columns, b.rows, b.items_x, b.items_per_pose,
-                                 range.i_first, range.j_first, range.width(), range.height(),
-                                 angle_first, pose_list ? 1 : 0, test.flag_words(), std::int32_t(offsets[t]),
-                                 test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
-            const std::uint64_t items = count * std::uint64_t(b.items_per_pose);
-            stats_.work_items += items;
-            sequence.dispatch(overlap_, sets.back(), params, std::uint32_t(items));
-        }
-        // The host reads the flags after the fence.
-        sequence.barrier_to_host();
-        sequence.submit_and_wait();
-        ++stats_.submits;
-        const std::uint32_t* f = flags->mapped<std::uint32_t>().data();
-        for (std::size_t t = 0; t < stage.size(); ++t) {
-            const OverlapTest& test = stage[t];
+            const Blocks b = blocks_of(test);
             const int words = test.flag_words();
+            const bool every_frame = test.want == Want::EveryFrame;
+            const int wave = every_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
+            std::vector<std::uint32_t> found(count * std::uint64_t(words), 0u);
+            std::vector<std::uint64_t> live(count);
+            for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
+            for (int chunk_first = 0; chunk_first < b.items_per_pose && !live.empty(); chunk_first += wave) {
+                const int chunks = std::min(wave, b.items_per_pose - chunk_first);
+                const bool implicit = !pose_list && live.size() == count;
+                if (!implicit) {
+                    ensure_host_capacity(context_, poses, live.size() * 16);
+                    auto* out = poses->mapped<std::uint8_t>().data();
+                    for (std::size_t l = 0; l < live.size(); ++l) {
+                        const auto pose = pose_at(live[l]);
+                        std::memcpy(out + l * 16, pose.data(), 16);
+                    }
+                }
+                ensure_host_capacity(context_, flags, live.size() * std::uint64_t(words) * 4);
+                sequence.fill(*flags, live.size() * std::uint64_t(words) * 4, 0u);
+                // The clear must land before the test ORs its flags in.
+                sequence.barrier();
+                const vk::raii::DescriptorSet set = overlap_.bind(
+                    {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
+                     implicit ? &no_poses : poses.get(), flags.get(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses,
+                     test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses});
+                const OverlapParams params{0, 0,
+                                           std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
+                                           std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
+                                           s.slots, s.zwords, test.frames, test.mode(),
+                                           b.columns, b.rows, b.items_x, chunk_first, chunks,
+                                           range.i_first, range.j_first, range.width(), range.height(),
+                                           angle_first, implicit ? 0 : 1, words, 0,
+                                           test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
+                const std::uint64_t items = live.size() * std::uint64_t(chunks);
+                stats_.work_items += items;
+                sequence.dispatch(overlap_, set, params, std::uint32_t(items));
+                // The host reads the flags after the fence.
+                sequence.barrier_to_host();
+                sequence.submit_and_wait();
+                ++stats_.submits;
+                const std::uint32_t* f = flags->mapped<std::uint32_t>().data();
+                // Frames whose every item has run: a frame among them without overlap decides the pose.
+                const int frames_done = every_frame ? std::min(frames, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
+                std::vector<std::uint64_t> undecided;
+                for (std::size_t l = 0; l < live.size(); ++l) {
+                    std::uint32_t* w = found.data() + live[l] * std::uint64_t(words);
+                    for (int q = 0; q < words; ++q) w[q] |= f[l * std::size_t(words) + std::size_t(q)];
+                    bool decided = false;
+                    if (every_frame) {
+                        for (int t2 = 0; t2 < frames_done && !decided; ++t2) decided = (w[t2 >> 5] & (1u << (t2 & 31))) == 0;
+                    } else {
+                        decided = w[0] != 0;
+                    }
+                    if (!decided) undecided.push_back(live[l]);
+                }
+                live = std::move(undecided);
+            }
             for (std::uint64_t p = 0; p < count; ++p) {
-                const std::uint32_t* w = f + offsets[t] + p * std::uint64_t(words);
+                const std::uint32_t* w = found.data() + p * std::uint64_t(words);
                 bool ok;
-                if (test.want == Want::EveryFrame) {
+                if (every_frame) {
                     ok = true;
                     for (int q = 0; q < words; ++q) {
                         int bits = std::min(32, frames - q * 32);
