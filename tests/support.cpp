@@ -79,4 +79,12 @@ void write_labelled_obj(const std::filesystem::path& obj, const std::filesystem:
     write_obj(obj, all);
 }
 
+int one_line_error(const CommandResult& result) {
+    std::istringstream lines(result.output);
+    std::string line;
+    int errors = 0;
+    while (std::getline(lines, line)) errors += line.rfind("amhv: error: ", 0) == 0;
+    return errors;
+}
+
 }  // namespace amhv::test

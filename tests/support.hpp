@@ -46,5 +46,7 @@ struct CommandResult {
 };
 // Runs the built `amhv` binary with `arguments` (a shell-quoted string).
 CommandResult run_amhv(const std::string& arguments);
+// How many lines of the output are "amhv: error: ..." lines.
+int one_line_error(const CommandResult& result);
 
 }  // namespace amhv::test

@@ -162,11 +162,6 @@ TEST(Bvh, ResamplingKeepsCapturedFramesAndInterpolatesRotationsAsRotations) {
     EXPECT_THROW(resample_bvh(two, 0), Error);
 }
 
-int one_line_error(const test::CommandResult& result) {
-    return result.exit_code != 0 && result.output.rfind("amhv: error: ", 0) == 0 ? int(std::count(result.output.begin(), result.output.end(), '\n'))
-                                                                                : -1;
-}
-
 TEST(ImportBvh, WritesMeshesLabelsAndTrackThatScenesReadBack) {
     test::TempDir tmp;
     const fs::path bvh = test::source_dir() / "data/cmu/19_01.bvh";
@@ -250,7 +245,9 @@ TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
              {fmt::format("import-bvh '{}' --unit furlong --out '{}'", bvh, out), "--unit: unit 'furlong'"},
          }) {
         auto result = test::run_amhv(arguments);
-        EXPECT_EQ(one_line_error(result), 1) << result.output;
+        EXPECT_NE(result.exit_code, 0) << result.output;
+        EXPECT_EQ(test::one_line_error(result), 1) << result.output;
+        EXPECT_EQ(std::count(result.output.begin(), result.output.end(), '\n'), 1) << result.output;  // nothing else either
         EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
         EXPECT_FALSE(fs::exists(out));
     }

@@ -36,14 +36,6 @@ fs::path make_sequence(const fs::path& folder, int frames = 12) {
     return folder;
 }
 
-int one_line_error(const test::CommandResult& result) {
-    std::istringstream lines(result.output);
-    std::string line;
-    int errors = 0;
-    while (std::getline(lines, line)) errors += line.rfind("amhv: error: ", 0) == 0;
-    return errors;
-}
-
 TEST(Cli, MhvWritesVolumeJsonAndExrSlices) {
     test::TempDir tmp;
     make_sequence(tmp.path() / "ball");
@@ -175,7 +167,7 @@ TEST_P(CliBadInput, OneLineErrorAndNoOutput) {
     std::string unit = bad.extra.find("--unit") == std::string::npos ? "--unit cm" : "";
     auto result = test::run_amhv(fmt::format("mhv --meshes '{}/frame_%04d.obj' {} --out '{}' {}", folder.string(), unit, out.string(), bad.extra));
     EXPECT_NE(result.exit_code, 0) << result.output;
-    EXPECT_EQ(one_line_error(result), 1) << result.output;
+    EXPECT_EQ(test::one_line_error(result), 1) << result.output;
     EXPECT_NE(result.output.find(bad.expected), std::string::npos) << result.output;
     EXPECT_FALSE(fs::exists(out));
     for (const auto& entry : fs::directory_iterator(tmp.path())) EXPECT_EQ(entry.path().filename().string().find(".out.partial"), std::string::npos);
@@ -221,7 +213,7 @@ TEST(Cli, UnreadableAndMissingInputs) {
          }) {
         auto result = test::run_amhv(arguments);
         EXPECT_NE(result.exit_code, 0);
-        EXPECT_EQ(one_line_error(result), 1) << result.output;
+        EXPECT_EQ(test::one_line_error(result), 1) << result.output;
         EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
         EXPECT_FALSE(fs::exists(tmp.path() / "o"));
     }
@@ -272,7 +264,7 @@ TEST(Cli, DevicesListsLavapipeAndMarksTheChosenOne) {
     EXPECT_NE(result.output.find("subgroup size"), std::string::npos);
     auto missing = test::run_amhv("devices --device 42");
     EXPECT_NE(missing.exit_code, 0);
-    EXPECT_EQ(one_line_error(missing), 1) << missing.output;
+    EXPECT_EQ(test::one_line_error(missing), 1) << missing.output;
 }
 
 TEST(Cli, NoVulkanDriverSaysWhatToInstall) {

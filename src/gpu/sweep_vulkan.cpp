@@ -218,6 +218,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     std::unique_ptr<Buffer> flags, poses;
     Buffer no_poses(context_, 16, Buffer::Memory::Host);
 
+    // Pose p of the implicit list: every (i, j) of the range, angle by angle from `angle_first`.
+    auto implicit_pose = [&](int angle_first, std::uint64_t p) -> std::array<std::int32_t, 4> {
+        const std::uint64_t per_angle = std::uint64_t(range.width()) * std::uint64_t(range.height()), rest = p % per_angle;
+        return {angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
+                range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0};
+    };
     // Runs every test of `stage` on `pose_list` (or, when null, on the `implicit_count` poses of the
     // range starting at angle `angle_first`) and returns, per test and pose, whether the pose meets
     // the test's criterion (`Want`). A pose's work items go out in waves (one block of frames, or a
@@ -228,12 +234,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const std::uint64_t count = pose_list ? pose_list->size() : implicit_count;
         std::vector<std::vector<std::uint8_t>> meets(stage.size(), std::vector<std::uint8_t>(count, 1));
         if (count == 0 || stage.empty()) return meets;
-        auto pose_at = [&](std::uint64_t p) -> std::array<std::int32_t, 4> {
-            if (pose_list) return (*pose_list)[p];
-            const std::uint64_t per_angle = std::uint64_t(range.width()) * std::uint64_t(range.height()), rest = p % per_angle;
-            return {angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
-                    range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0};
-        };
+        auto pose_at = [&](std::uint64_t p) { return pose_list ? (*pose_list)[p] : implicit_pose(angle_first, p); };
         for (std::size_t t = 0; t < stage.size(); ++t) {
             const OverlapTest& test = stage[t];
             const ColumnVolume& s = test.fixed->columns;
@@ -419,12 +420,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         } else {
             stats_.pose_tests_per_stage[0] += batch_poses;
             const auto meets = run_stage(stages[0], nullptr, batch_poses, angle_first);
-            for (std::uint64_t p = 0; p < batch_poses; ++p) {
-                if (!passes_all(meets, p)) continue;
-                std::uint64_t rest = p % per_angle;
-                survivors.push_back({angle_first + std::int32_t(p / per_angle), range.i_first + std::int32_t(rest % std::uint64_t(range.width())),
-                                     range.j_first + std::int32_t(rest / std::uint64_t(range.width())), 0});
-            }
+            for (std::uint64_t p = 0; p < batch_poses; ++p)
+                if (passes_all(meets, p)) survivors.push_back(implicit_pose(angle_first, p));
         }
         lap(stats_.seconds_per_stage[0]);
         for (int stage = 1; stage < 4; ++stage) {

@@ -171,13 +171,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     const toml::node* source_node = t.get(bvh ? "bvh" : "meshes");
     if (bvh) {
         if (!fs::is_regular_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
-        if (auto tpose = t.string("tpose")) {
-            try {
-                o.tpose = parse_tpose(*tpose, "tpose");
-            } catch (const Error&) {
-                t.error("tpose", t.get("tpose"), "'{}' is not auto, skip or keep", *tpose);
-            }
-        }
+        if (auto tpose = t.string("tpose")) o.tpose = parse_tpose(*tpose, t.where("tpose", t.get("tpose")));
         const std::optional<double> fps = t.number("fps", 1, 1000, false);
         const BvhMotion motion = load_bvh(o.bvh, BvhLoadOptions{o.tpose, fps.value_or(0)});
         o.tpose = motion.first_frame > 0 ? TPose::Skip : TPose::Keep;  // what auto found
