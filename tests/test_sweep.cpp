@@ -170,13 +170,19 @@ TEST(Sweep, RandomScenesMatchReference) {
         auto both = sweep_both(problem);
         SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 11]);
         expect_identical(both);
-        // The block pre-test is exact at any block size, and off (1) it is the plain per-pose sweep.
+        // Overlap maps (the default) decide contact and the dictionary without a single pose test.
+        gpu::VulkanSweeper mapped(test::context());
+        EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes);
+        EXPECT_EQ(mapped.last_stats().pose_tests_per_stage[0] + mapped.last_stats().pose_tests_per_stage[1], 0u);
+        EXPECT_GT(mapped.last_stats().pulled_runs_per_stage[0], 0u);
+        // Pose by pose, the block pre-test is exact at any block size, and off (1) it is the plain
+        // per-pose sweep.
         for (int block : {1, 3}) {
-            gpu::VulkanSweeper sweeper(test::context(), {.block = block});
+            gpu::VulkanSweeper sweeper(test::context(), {.block = block, .maps = false});
             EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "block " << block;
             test::expect_no_validation_messages();
         }
-        gpu::VulkanSweeper blocked(test::context());
+        gpu::VulkanSweeper blocked(test::context(), {.maps = false});
         blocked.sweep(problem);
         for (int stage = 0; stage < 4; ++stage) {
             poses_entering += blocked.last_stats().poses_per_stage[std::size_t(stage)];
@@ -220,10 +226,15 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         // Per pose the fidelity test alone visits about 60 x 60 columns x 3 words x 41 slots.
         auto both = sweep_both(problem);
         expect_identical(both);
-        gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000, .loop_budget = 200, .block = 2});
-        SweepResult split = tiny.sweep(problem);
-        test::expect_no_validation_messages();
-        EXPECT_EQ(split.outcomes, both.reference.outcomes);
+        // Tiny items, pose by pose and by maps (fixed runs split into many chunks, maps in many
+        // batches of angles).
+        for (bool maps : {false, true}) {
+            gpu::VulkanSweeper tiny(test::context(),
+                                    {.max_poses_per_batch = 5000, .loop_budget = 200, .block = 2, .maps = maps, .max_map_bytes = 1 << 18});
+            SweepResult split = tiny.sweep(problem);
+            test::expect_no_validation_messages();
+            EXPECT_EQ(split.outcomes, both.reference.outcomes) << "maps " << maps;
+        }
         if (std::string(type) == "0&0b") {
             EXPECT_GT(both.gpu.rejected[2], 0u);
             EXPECT_GT(both.gpu.solutions, 0u);

@@ -105,6 +105,8 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         SweepResult result = sweeper.sweep(problem);
         sweeper.progress = nullptr;
         timings["sweep"] = seconds_since(t0);
+        if (const auto stages = sweeper.stage_seconds(); stages.size() == 4)
+            timings["sweep_stages"] = {{"contact", stages[0]}, {"dictionary", stages[1]}, {"fidelity", stages[2]}, {"visibility", stages[3]}};
 
         t0 = std::chrono::steady_clock::now();
         const auto dir = out / fmt::format("segment_{}", segment.index);

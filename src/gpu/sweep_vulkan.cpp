@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "core/error.hpp"
 #include "sweep/column_volume.hpp"
+#include "sweep/slice_runs.hpp"
+#include "sweep_map.spv.h"
 #include "sweep_overlap.spv.h"
 
 namespace amhv::gpu {
@@ -27,6 +31,15 @@ struct OverlapParams {
     std::int32_t frames_per_item, spatial_items;
 };
 static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
+
+struct MapParams {
+    std::uint32_t item_base, item_count;
+    std::int32_t chunks, runs_per_chunk;
+    std::int32_t zbits, slot_count;
+    std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
+    std::int32_t map_per_slot;
+};
+static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
 struct GpuAngle {
     std::int64_t trig[2];
@@ -58,6 +71,18 @@ struct OverlapTest {
     int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
 };
 
+// One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
+// of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
+struct MapTest {
+    const ColumnVolume* fixed;
+    const ColumnVolume* moving;
+    std::vector<int> slots;
+    Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
+    FixedRuns runs;
+    std::unique_ptr<Buffer> fixed_runs, fixed_keys;
+    int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
+};
+
 struct Blocks {
     int columns, rows, items_x, items_per_pose;
     int frames_per_item = 0, spatial_items = 1;
@@ -68,7 +93,8 @@ struct Blocks {
 VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
     : context_(context),
       options_(options),
-      overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}) {}
+      overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
+      map_(context, sweep_map_spv, 4, sizeof(MapParams), {kWorkgroup}) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -125,6 +151,36 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     if (problem.visibility) {
         stages[3].push_back({add(columns_of(A.view_cone, z, false)), add(columns_of(B.whole, z, false)), 0, Want::Overlap});
         stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z, false)), 0, Want::Overlap});
+    }
+
+    // Overlap maps for contact and the dictionary (SweeperOptions::maps): the same tests, decided
+    // for every offset of an angle at once from slice runs.
+    std::vector<std::vector<MapTest>> map_stages(2);
+    if (options_.maps) {
+        std::vector<int> every_frame(static_cast<std::size_t>(frames));
+        for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
+        auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
+            return MapTest{&fixed, &moving, std::move(slots), want, {}, nullptr, nullptr};
+        };
+        map_stages[0].push_back(map_test(interest_a->columns, interest_b->columns, {0}, Want::Overlap));
+        if (!type.lateral_pair()) {
+            for (const OverlapTest& test : stages[1]) map_stages[1].push_back(map_test(test.fixed->columns, test.moving->columns, {0}, Want::NoOverlap));
+        } else if (type.variant == 'a' || type.variant == 'b') {
+            map_stages[1].push_back(
+                map_test(interest_a->columns, interest_b->columns, every_frame, type.variant == 'a' ? Want::EveryFrame : Want::Overlap));
+        } else {
+            // (c): the voxels A has reached by t meet those B still occupies at or after t for some t
+            // exactly when they meet those B occupies at t itself for some t (take t = t_end^B of the
+            // shared voxel); single frames of B give far fewer runs.
+            map_stages[1].push_back(map_test(stages[1].front().fixed->columns, add(columns_of(B.interest, z, true))->columns, every_frame,
+                                             Want::NoOverlap));
+        }
+        for (auto& stage : map_stages)
+            for (MapTest& test : stage) {
+                test.runs = fixed_runs(*test.fixed, test.slots);
+                test.fixed_runs = upload_to_host(context_, test.runs.runs.data(), test.runs.runs.size() * sizeof(SliceRun));
+                test.fixed_keys = upload_to_host(context_, test.runs.by_key.data(), test.runs.by_key.size() * 8);
+            }
     }
 
     // Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
@@ -322,7 +378,79 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     for_each_test([&](const OverlapTest& test) { max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose)); });
     const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options_.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
     if (per_angle > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle, max_poses);
-    const int angles_per_batch = int(std::max<std::uint64_t>(1, max_poses / per_angle));
+    // Overlap maps: one bit per offset, a row of words per j, per angle and map.
+    const int row_words = (range.width() + 31) / 32;
+    std::uint64_t maps_per_angle = 0;
+    for (const auto& stage : map_stages)
+        for (const MapTest& test : stage) maps_per_angle = std::max<std::uint64_t>(maps_per_angle, std::uint64_t(test.maps_per_angle()));
+    const std::uint64_t map_bytes_per_angle = maps_per_angle * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
+    const std::uint64_t max_map_bytes = std::min<std::uint64_t>(options_.max_map_bytes, context_.selected().max_storage_buffer_range);
+    if (map_bytes_per_angle > max_map_bytes)
+        fail("sweep", "the overlap maps of one angle need {} bytes, more than the {} a batch may hold; narrow the x/y range", map_bytes_per_angle,
+             max_map_bytes);
+    std::uint64_t batch_limit = std::max<std::uint64_t>(1, max_poses / per_angle);
+    if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
+    const int angles_per_batch = int(std::max<std::uint64_t>(1, batch_limit));
+
+    // Decides `test` for every pose of the batch (implicit order) with an overlap map.
+    std::unique_ptr<Buffer> pulled, map_words;
+    auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles) {
+        std::vector<SliceRun> runs;
+        int longest = 0;
+        for (int a = 0; a < batch_angles; ++a)
+            longest = std::max(longest, append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, runs));
+        stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
+        const int maps = test.maps_per_angle();
+        const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
+        ensure_host_capacity(context_, map_words, map_bytes);
+        sequence.fill(*map_words, map_bytes, 0u);
+        // The clear must land before the runs OR their intervals in.
+        sequence.barrier();
+        std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
+        if (!runs.empty() && !test.runs.runs.empty()) {
+            // Loop steps of one fixed run: the test, then the words its interval spans.
+            const std::uint64_t per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
+            if (per_run > options_.loop_budget)
+                fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
+            const int runs_per_chunk = int(options_.loop_budget / per_run);
+            const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
+            const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
+            if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
+                fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
+            ensure_host_capacity(context_, pulled, runs.size() * sizeof(SliceRun));
+            std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(SliceRun));
+            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get()}));
+            const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
+                                   range.i_first, range.j_first, range.width(), range.height(), row_words,
+                                   test.want == Want::EveryFrame ? 1 : 0};
+            stats_.work_items += items;
+            sequence.dispatch(map_, *set, params, std::uint32_t(items));
+        }
+        // The host reads the maps after the fence.
+        sequence.barrier_to_host();
+        sequence.submit_and_wait();
+        ++stats_.submits;
+        const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
+        std::vector<std::uint8_t> meets(per_angle * std::uint64_t(batch_angles));
+        std::size_t p = 0;
+        for (int a = 0; a < batch_angles; ++a)
+            for (int j = 0; j < range.height(); ++j)
+                for (int i = 0; i < range.width(); ++i, ++p) {
+                    auto bit = [&](int map) {
+                        const std::size_t row = (std::size_t(a) * std::size_t(maps) + std::size_t(map)) * std::size_t(range.height()) + std::size_t(j);
+                        return (words[row * std::size_t(row_words) + std::size_t(i >> 5)] >> (i & 31)) & 1u;
+                    };
+                    if (test.want == Want::EveryFrame) {
+                        bool all = true;
+                        for (int m = 0; m < maps && all; ++m) all = bit(m) != 0;
+                        meets[p] = all;
+                    } else {
+                        meets[p] = (bit(0) != 0) == (test.want == Want::Overlap);
+                    }
+                }
+        return meets;
+    };
+
 
     auto outcome_index = [&](const std::array<std::int32_t, 4>& p) {
         return (std::size_t(p[0]) * range.height() + std::size_t(p[2] - range.j_first)) * range.width() + std::size_t(p[1] - range.i_first);
@@ -399,32 +527,48 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             total += std::chrono::duration<double>(now - clock).count();
             clock = now;
         };
-        // Contact on every pose of the batch: by block where blocks are on, then pose by pose.
         std::vector<Pose> survivors;
-        if (block > 1) {
-            std::vector<Pose> bases;
-            for (int k = angle_first; k < angle_first + batch_angles; ++k)
-                for (int bj = 0; bj < blocks_y; ++bj)
-                    for (int bi = 0; bi < blocks_x; ++bi) bases.push_back({k, range.i_first + bi * block, range.j_first + bj * block, 0});
-            const std::vector<Verdict> verdicts = block_verdicts(0, bases);
-            std::vector<Pose> candidates;
-            for (std::size_t b = 0; b < bases.size(); ++b) {
-                if (verdicts[b] == Verdict::Fail) continue;
-                for (int j = bases[b][2]; j < std::min(bases[b][2] + block, range.j_last + 1); ++j)
-                    for (int i = bases[b][1]; i < std::min(bases[b][1] + block, range.i_last + 1); ++i) candidates.push_back({bases[b][0], i, j, 0});
+        if (options_.maps) {
+            // Contact, then the dictionary on the poses in contact, every offset at once.
+            const auto contact = run_map(map_stages[0].front(), 0, angle_first, batch_angles);
+            lap(stats_.seconds_per_stage[0]);
+            std::vector<std::vector<std::uint8_t>> dictionary;
+            for (MapTest& test : map_stages[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles));
+            for (std::uint64_t p = 0; p < batch_poses; ++p) {
+                if (!contact[p]) continue;
+                ++stats_.poses_per_stage[1];
+                const Pose pose = implicit_pose(angle_first, p);
+                if (passes_all(dictionary, p)) survivors.push_back(pose);
+                else result.outcomes[outcome_index(pose)] = PoseOutcome::FailsDictionary;
             }
-            stats_.pose_tests_per_stage[0] += candidates.size();
-            const auto meets = run_stage(stages[0], &candidates, 0, 0);
-            for (std::size_t p = 0; p < candidates.size(); ++p)
-                if (passes_all(meets, p)) survivors.push_back(candidates[p]);
+            lap(stats_.seconds_per_stage[1]);
         } else {
-            stats_.pose_tests_per_stage[0] += batch_poses;
-            const auto meets = run_stage(stages[0], nullptr, batch_poses, angle_first);
-            for (std::uint64_t p = 0; p < batch_poses; ++p)
-                if (passes_all(meets, p)) survivors.push_back(implicit_pose(angle_first, p));
+            // Contact on every pose of the batch: by block where blocks are on, then pose by pose.
+            if (block > 1) {
+                std::vector<Pose> bases;
+                for (int k = angle_first; k < angle_first + batch_angles; ++k)
+                    for (int bj = 0; bj < blocks_y; ++bj)
+                        for (int bi = 0; bi < blocks_x; ++bi) bases.push_back({k, range.i_first + bi * block, range.j_first + bj * block, 0});
+                const std::vector<Verdict> verdicts = block_verdicts(0, bases);
+                std::vector<Pose> candidates;
+                for (std::size_t b = 0; b < bases.size(); ++b) {
+                    if (verdicts[b] == Verdict::Fail) continue;
+                    for (int j = bases[b][2]; j < std::min(bases[b][2] + block, range.j_last + 1); ++j)
+                        for (int i = bases[b][1]; i < std::min(bases[b][1] + block, range.i_last + 1); ++i) candidates.push_back({bases[b][0], i, j, 0});
+                }
+                stats_.pose_tests_per_stage[0] += candidates.size();
+                const auto meets = run_stage(stages[0], &candidates, 0, 0);
+                for (std::size_t p = 0; p < candidates.size(); ++p)
+                    if (passes_all(meets, p)) survivors.push_back(candidates[p]);
+            } else {
+                stats_.pose_tests_per_stage[0] += batch_poses;
+                const auto meets = run_stage(stages[0], nullptr, batch_poses, angle_first);
+                for (std::uint64_t p = 0; p < batch_poses; ++p)
+                    if (passes_all(meets, p)) survivors.push_back(implicit_pose(angle_first, p));
+            }
+            lap(stats_.seconds_per_stage[0]);
         }
-        lap(stats_.seconds_per_stage[0]);
-        for (int stage = 1; stage < 4; ++stage) {
+        for (int stage = options_.maps ? 2 : 1; stage < 4; ++stage) {
             stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
             const auto passes = decide(stage, survivors, angle_first, batch_angles);
             std::vector<Pose> next;
@@ -439,6 +583,10 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         if (progress) progress(angle_first + batch_angles, range.angles);
     }
     result.count();
+    if (std::getenv("AMHV_SWEEP_STATS"))
+        for (int st = 0; st < 4; ++st)
+            fmt::print(stderr, "stage {}: {} poses, {} blocks, {} pose tests, {} pulled runs, {:.2f} s\n", st, stats_.poses_per_stage[st], stats_.blocks_per_stage[st],
+                       stats_.pose_tests_per_stage[st], stats_.pulled_runs_per_stage[st], stats_.seconds_per_stage[st]);
     return result;
 }
 

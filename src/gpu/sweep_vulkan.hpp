@@ -4,7 +4,10 @@
 // tests (shaders/sweep_overlap.comp) over batches of poses: contact on every pose of the range,
 // then the dictionary on the poses in contact, fidelity on those, visibility on those. Each stage
 // first decides whole blocks of offsets with OR-pooled volumes where it can, then tests the rest
-// pose by pose. It only reads back one flag word per pose (or block) and test.
+// pose by pose. It only reads back one flag word per pose (or block) and test. With overlap maps
+// (the default), contact and the dictionary are instead decided for every offset of an angle at
+// once from slice runs (sweep/slice_runs.hpp, shaders/sweep_map.comp), and only fidelity and
+// visibility, which few poses reach, go pose by pose.
 #include <array>
 #include <cstdint>
 
@@ -21,6 +24,11 @@ struct SweeperOptions {
     // block of block x block offsets against the fixed volumes OR-pooled over the block; a block
     // whose pooled test proves "no overlap" is decided for all its poses at once.
     int block = 8;
+    // Contact and the interaction dictionary by overlap maps (shaders/sweep_map.comp): every offset
+    // of an angle at once, from pairs of slice runs, instead of pose by pose. Off: pose by pose.
+    bool maps = true;
+    // Bytes of overlap maps one batch of angles may hold.
+    std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
 };
 
 struct SweepStats {
@@ -30,6 +38,7 @@ struct SweepStats {
     std::array<double, 4> seconds_per_stage{};        // wall time of each stage, host work included
     std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
     std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
+    std::array<std::uint64_t, 4> pulled_runs_per_stage{};  // slice runs of B mapped by overlap maps
 };
 
 class VulkanSweeper : public Sweeper {
@@ -38,6 +47,9 @@ public:
     std::string name() const override;
     SweepResult sweep(const SweepProblem& problem) override;
     const SweepStats& last_stats() const { return stats_; }
+    std::vector<double> stage_seconds() const override {
+        return {stats_.seconds_per_stage.begin(), stats_.seconds_per_stage.end()};
+    }
 
     static constexpr std::uint32_t kWorkgroup = 64;
     static constexpr int kMaxFrameWords = 16;  // PER_FRAME tests handle up to 512 frames
@@ -46,6 +58,7 @@ private:
     Context& context_;
     SweeperOptions options_;
     Kernel overlap_;
+    Kernel map_;
     SweepStats stats_;
 };
 

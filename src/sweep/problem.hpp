@@ -101,6 +101,9 @@ public:
     std::function<void(int, int)> progress;
     virtual std::string name() const = 0;
     virtual SweepResult sweep(const SweepProblem& problem) = 0;
+    // Wall seconds of the last sweep per constraint stage (contact, dictionary, fidelity,
+    // visibility), where the backend measures them; empty otherwise.
+    virtual std::vector<double> stage_seconds() const { return {}; }
 };
 
 }  // namespace amhv

@@ -1,0 +1,63 @@
+#version 450
+// Overlap maps of the placement sweep (METHOD.md section 5): for every pose offset (i, j) of the
+// range at once, does the fixed volume (A's side) share a voxel with the moving volume (B's side,
+// pulled under A's lattice at offset 0 by the host)? Both volumes come as slice runs
+// (src/sweep/slice_runs.hpp): a fixed run (y_a, [xa0, xa1]) and a pulled run (y_b, [xb0, xb1]) at
+// the same z and slot pair overlap exactly at the offsets j = y_a - y_b, xa0 - xb1 <= i <= xa1 - xb0.
+// The map is the union of those intervals, one bit per offset, so its cost is one step per pair
+// of runs, whatever the number of poses.
+//
+// One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). The host
+// sizes the chunks so that runs * (words an interval spans + 2) stays under lavapipe's
+// per-invocation loop cap.
+layout(local_size_x_id = 0) in;
+
+struct Run {
+    int y, x_first, x_last, key;
+};
+layout(std430, set = 0, binding = 0) readonly buffer FixedRuns { Run fixed_runs[]; };  // sorted by key
+layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_keys[]; };  // per key: first run, count
+layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
+// [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
+layout(std430, set = 0, binding = 3) buffer Maps { uint maps[]; };
+
+layout(push_constant) uniform Params {
+    uint item_base;
+    uint item_count;
+    int chunks, runs_per_chunk;
+    int zbits, slot_count;
+    int range_i0, range_j0, range_ni, range_nj, row_words;
+    // 1: one map per slot pair (every-frame tests); 0: one map for all.
+    int map_per_slot;
+} params;
+
+void main() {
+    uint item = params.item_base + gl_GlobalInvocationID.x;
+    if (gl_GlobalInvocationID.x >= params.item_count) return;
+    Run b = pulled_runs[item / uint(params.chunks)];
+    int chunk = int(item % uint(params.chunks));
+    int z = b.key % params.zbits;
+    int angle_slot = b.key / params.zbits;
+    int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;
+    ivec2 key = fixed_keys[slot * params.zbits + z];
+    int first = key.x + chunk * params.runs_per_chunk;
+    int last = min(key.x + key.y, first + params.runs_per_chunk);
+    int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
+    uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
+    for (int r = first; r < last; ++r) {
+        Run a = fixed_runs[r];
+        int j = a.y - b.y - params.range_j0;
+        if (j < 0 || j >= params.range_nj) continue;
+        int lo = max(a.x_first - b.x_last - params.range_i0, 0);
+        int hi = min(a.x_last - b.x_first - params.range_i0, params.range_ni - 1);
+        if (lo > hi) continue;
+        uint row = map_base + uint(j) * uint(params.row_words);
+        for (int w = lo >> 5; w <= hi >> 5; ++w) {
+            uint mask = 0xffffffffu;
+            if (w == (lo >> 5)) mask &= 0xffffffffu << uint(lo & 31);
+            if (w == (hi >> 5)) mask &= 0xffffffffu >> uint(31 - (hi & 31));
+            // Most intervals land where other pairs already set the bits: a plain read skips the atomic.
+            if ((maps[row + uint(w)] & mask) != mask) atomicOr(maps[row + uint(w)], mask);
+        }
+    }
+}

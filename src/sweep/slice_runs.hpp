@@ -1,0 +1,43 @@
+#pragma once
+// Slice runs: a column volume cut into horizontal runs, the layout of the overlap-map stage of the
+// sweep (shaders/sweep_map.comp). A run is a maximal stretch of set voxels along x at one z, one y
+// and one slot. Two volumes overlap under pose offset (i, j) exactly when some run of the fixed
+// volume (y_a, [xa0, xa1]) and some run of the pulled moving volume (y_b, [xb0, xb1]) at the same
+// z and slot pair satisfy j = y_a - y_b and xa0 - xb1 <= i <= xa1 - xb0: one pair of runs settles a
+// whole interval of offsets, so a map of every offset costs one step per pair of runs instead of
+// one test per pose.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "sweep/column_volume.hpp"
+#include "sweep/pose_map.hpp"
+
+namespace amhv {
+
+struct SliceRun {
+    std::int32_t y = 0, x_first = 0, x_last = 0;  // global lattice
+    // Fixed runs: slot_index * zbits + z. Pulled runs: (angle_in_batch * slot count + slot_index) * zbits + z.
+    std::int32_t key = 0;
+};
+static_assert(sizeof(SliceRun) == 16);
+
+// The runs of the fixed volume, grouped by key = slot_index * zbits + z, where slot_index indexes
+// `slots` (slot numbers of the column volume) and z is the bit in the shared z frame.
+struct FixedRuns {
+    int zbits = 0;
+    std::vector<SliceRun> runs;                         // sorted by (key, y, x_first)
+    std::vector<std::array<std::int32_t, 2>> by_key;    // per key: first run, run count
+    int longest = 0;                                    // voxels in the longest run
+    int most_per_key = 0;                               // runs in the fullest key
+};
+
+FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
+
+// Appends the runs of `moving` pulled under A's lattice at pose (0, 0, angle) (the mapping of
+// pose_map.hpp), for `slots`, with keys for `angle_in_batch`. Returns the longest run appended.
+int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots, const posemap::Trig& trig,
+                       const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b, int angle_in_batch,
+                       std::vector<SliceRun>& out);
+
+}  // namespace amhv
