@@ -170,11 +170,22 @@ TEST(Sweep, RandomScenesMatchReference) {
         auto both = sweep_both(problem);
         SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 11]);
         expect_identical(both);
-        // Overlap maps (the default) decide contact and the dictionary without a single pose test.
-        gpu::VulkanSweeper mapped(test::context());
-        EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes);
-        EXPECT_EQ(mapped.last_stats().pose_tests_per_stage[0] + mapped.last_stats().pose_tests_per_stage[1], 0u);
-        EXPECT_GT(mapped.last_stats().pulled_runs_per_stage[0], 0u);
+        // Overlap maps (the default) decide contact without a single pose test; every other stage
+        // can go by maps too, or pose by pose, whatever the cost model says.
+        for (double pose_test_pairs : {0.0, 1e12}) {
+            gpu::VulkanSweeper mapped(test::context(), {.pose_test_pairs = pose_test_pairs});
+            EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes) << pose_test_pairs;
+            test::expect_no_validation_messages();
+            const auto& stats = mapped.last_stats();
+            EXPECT_EQ(stats.pose_tests_per_stage[0], 0u);
+            EXPECT_GT(stats.pulled_runs_per_stage[0], 0u);
+            if (pose_test_pairs > 0) {
+                EXPECT_EQ(stats.pose_tests_per_stage[1] + stats.pose_tests_per_stage[2] + stats.pose_tests_per_stage[3], 0u);
+                if (stats.poses_per_stage[2] > 0) {
+                    EXPECT_GT(stats.pulled_runs_per_stage[2], 0u);
+                }
+            }
+        }
         // Pose by pose, the block pre-test is exact at any block size, and off (1) it is the plain
         // per-pose sweep.
         for (int block : {1, 3}) {
@@ -229,8 +240,12 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         // Tiny items, pose by pose and by maps (fixed runs split into many chunks, maps in many
         // batches of angles).
         for (bool maps : {false, true}) {
-            gpu::VulkanSweeper tiny(test::context(),
-                                    {.max_poses_per_batch = 5000, .loop_budget = 200, .block = 2, .maps = maps, .max_map_bytes = 1 << 18});
+            gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000,
+                                                      .loop_budget = 200,
+                                                      .block = 2,
+                                                      .maps = maps,
+                                                      .pose_test_pairs = 1e12,
+                                                      .max_map_bytes = 1 << 18});
             SweepResult split = tiny.sweep(problem);
             test::expect_no_validation_messages();
             EXPECT_EQ(split.outcomes, both.reference.outcomes) << "maps " << maps;

@@ -63,12 +63,13 @@ struct OverlapTest {
     GpuVolume* moving;  // B's side: pulled under A's columns
     int frames;         // 0: unions only
     Want want;
-    std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
+    bool per_frame() const { return want == Want::EveryFrame; }
+    std::int32_t mode() const { return per_frame() ? kModePerFrame : kModeAny; }
     // The z words where both volumes have bits (first > last: the test cannot find an overlap).
     int word_first() const { return std::max(fixed->columns.word_first, moving->columns.word_first); }
     int word_last() const { return std::min(fixed->columns.word_last, moving->columns.word_last); }
     int words() const { return std::max(0, word_last() - word_first() + 1); }
-    int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
+    int flag_words() const { return per_frame() ? (frames + 31) / 32 : 1; }
 };
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
@@ -153,34 +154,54 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z, false)), 0, Want::Overlap});
     }
 
-    // Overlap maps for contact and the dictionary (SweeperOptions::maps): the same tests, decided
-    // for every offset of an angle at once from slice runs.
-    std::vector<std::vector<MapTest>> map_stages(2);
+    // Overlap maps (SweeperOptions::maps): tests decided for every offset of an angle at once from
+    // slice runs. `required_maps` replace the stage's pose tests: contact, and the dictionary's
+    // lateral types and surface test. `optional_maps` are the stage's pose tests as maps; a batch
+    // uses them when its poses in that stage would cost more pose by pose (the cost model).
+    std::vector<std::vector<MapTest>> required_maps(4), optional_maps(4);
     if (options_.maps) {
         std::vector<int> every_frame(static_cast<std::size_t>(frames));
         for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
         auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
             return MapTest{&fixed, &moving, std::move(slots), want, {}, nullptr, nullptr};
         };
-        map_stages[0].push_back(map_test(interest_a->columns, interest_b->columns, {0}, Want::Overlap));
+        auto map_of = [&](const OverlapTest& test) {
+            std::vector<int> slots{0};
+            if (test.frames > 0) slots = every_frame;
+            return map_test(test.fixed->columns, test.moving->columns, slots, test.want);
+        };
+        required_maps[0].push_back(map_of(stages[0].front()));
         if (!type.lateral_pair()) {
-            for (const OverlapTest& test : stages[1]) map_stages[1].push_back(map_test(test.fixed->columns, test.moving->columns, {0}, Want::NoOverlap));
+            // A pose in contact passes a labelled type only if the labelled surfaces (for a '0', the
+            // whole part) meet, since all its contact voxels lie on them. The surfaces are small, so
+            // this necessary test is cheap and leaves few poses for the exact ones.
+            auto on_surface = [&](const Amhv& volume, SurfaceLabel label, GpuVolume* whole) -> const ColumnVolume& {
+                if (label == SurfaceLabel::Lateral) return whole->columns;
+                return add(columns_where(volume, z, [&, label](std::size_t v) {
+                           return label == SurfaceLabel::Plus ? volume.t_end(v) >= last - problem.tolerance : volume.t_start(v) <= problem.tolerance;
+                       }))->columns;
+            };
+            required_maps[1].push_back(
+                map_test(on_surface(A.interest, type.a, interest_a), on_surface(B.interest, type.b, interest_b), {0}, Want::Overlap));
+            for (const OverlapTest& test : stages[1]) optional_maps[1].push_back(map_of(test));
         } else if (type.variant == 'a' || type.variant == 'b') {
-            map_stages[1].push_back(
-                map_test(interest_a->columns, interest_b->columns, every_frame, type.variant == 'a' ? Want::EveryFrame : Want::Overlap));
+            required_maps[1].push_back(map_of(stages[1].front()));
         } else {
             // (c): the voxels A has reached by t meet those B still occupies at or after t for some t
             // exactly when they meet those B occupies at t itself for some t (take t = t_end^B of the
             // shared voxel); single frames of B give far fewer runs.
-            map_stages[1].push_back(map_test(stages[1].front().fixed->columns, add(columns_of(B.interest, z, true))->columns, every_frame,
-                                             Want::NoOverlap));
+            required_maps[1].push_back(map_test(stages[1].front().fixed->columns, add(columns_of(B.interest, z, true))->columns, every_frame,
+                                                Want::NoOverlap));
         }
-        for (auto& stage : map_stages)
-            for (MapTest& test : stage) {
-                test.runs = fixed_runs(*test.fixed, test.slots);
-                test.fixed_runs = upload_to_host(context_, test.runs.runs.data(), test.runs.runs.size() * sizeof(SliceRun));
-                test.fixed_keys = upload_to_host(context_, test.runs.by_key.data(), test.runs.by_key.size() * 8);
-            }
+        for (int stage = 2; stage < 4; ++stage)
+            for (const OverlapTest& test : stages[std::size_t(stage)]) optional_maps[std::size_t(stage)].push_back(map_of(test));
+        for (auto* all : {&required_maps, &optional_maps})
+            for (auto& stage : *all)
+                for (MapTest& test : stage) {
+                    test.runs = fixed_runs(*test.fixed, test.slots);
+                    test.fixed_runs = upload_to_host(context_, test.runs.runs.data(), test.runs.runs.size() * sizeof(SliceRun));
+                    test.fixed_keys = upload_to_host(context_, test.runs.by_key.data(), test.runs.by_key.size() * 8);
+                }
     }
 
     // Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
@@ -223,7 +244,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             test.moving->angles = upload_to_host(context_, table.data(), table.size());
         });
     for_each_test([&](const OverlapTest& test) {
-            if (test.want != Want::EveryFrame) return;
+            if (!test.per_frame()) return;
             if (!test.fixed->frame_boxes) {
                 const auto& boxes = test.fixed->columns.slot_boxes;
                 test.fixed->frame_boxes = upload_to_host(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
@@ -243,7 +264,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const ColumnVolume& s = test.fixed->columns;
         // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
         // frame, then give the item as many frames as fit.
-        const bool per_frame = test.want == Want::EveryFrame;
+        const bool per_frame = test.per_frame();
         const std::uint64_t per_column = per_frame ? std::uint64_t(test.words()) + 2 : std::uint64_t(test.words()) * (1 + test.frames) + 2;
         if (per_column > options_.loop_budget)
             fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
@@ -298,7 +319,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const Blocks b = blocks_of(test);
             const int words = test.flag_words();
             const bool every_frame = test.want == Want::EveryFrame;
-            const int wave = every_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
+            const bool per_frame = test.per_frame();
+            const int wave = per_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
             std::vector<std::uint32_t> found(count * std::uint64_t(words), 0u);
             std::vector<std::uint64_t> live(count);
             for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
@@ -347,7 +369,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                     if (every_frame) {
                         for (int t2 = 0; t2 < frames_done && !decided; ++t2) decided = (w[t2 >> 5] & (1u << (t2 & 31))) == 0;
                     } else {
-                        decided = w[0] != 0;
+                        decided = std::any_of(w, w + words, [](std::uint32_t q) { return q != 0u; });
                     }
                     if (!decided) undecided.push_back(live[l]);
                 }
@@ -364,7 +386,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                         ok = ok && (w[q] & all) == all;
                     }
                 } else {
-                    ok = (w[0] != 0) == (test.want == Want::Overlap);
+                    ok = std::any_of(w, w + words, [](std::uint32_t q) { return q != 0u; }) == (test.want == Want::Overlap);
                 }
                 meets[t][p] = ok;
             }
@@ -381,8 +403,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // Overlap maps: one bit per offset, a row of words per j, per angle and map.
     const int row_words = (range.width() + 31) / 32;
     std::uint64_t maps_per_angle = 0;
-    for (const auto& stage : map_stages)
-        for (const MapTest& test : stage) maps_per_angle = std::max<std::uint64_t>(maps_per_angle, std::uint64_t(test.maps_per_angle()));
+    for (const auto* all : {&required_maps, &optional_maps})
+        for (const auto& stage : *all)
+            for (const MapTest& test : stage) maps_per_angle = std::max<std::uint64_t>(maps_per_angle, std::uint64_t(test.maps_per_angle()));
     const std::uint64_t map_bytes_per_angle = maps_per_angle * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
     const std::uint64_t max_map_bytes = std::min<std::uint64_t>(options_.max_map_bytes, context_.selected().max_storage_buffer_range);
     if (map_bytes_per_angle > max_map_bytes)
@@ -399,7 +422,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         int longest = 0;
         for (int a = 0; a < batch_angles; ++a)
             longest = std::max(longest, append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, runs));
+        // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
+        // loads across a subgroup.
+        std::stable_sort(runs.begin(), runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
         stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
+        const std::size_t fixed_keys = test.runs.by_key.size();
+        for (const SliceRun& run : runs) stats_.run_pairs_per_stage[std::size_t(stage)] += std::uint64_t(test.runs.by_key[std::size_t(run.key) % fixed_keys][1]);
         const int maps = test.maps_per_angle();
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
         ensure_host_capacity(context_, map_words, map_bytes);
@@ -517,6 +545,19 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         return passes;
     };
 
+    // The cost model: a stage's optional maps pay off when its poses, tested one by one, would cost
+    // more than the run pairs of its maps (estimated from the batch's first angle).
+    auto maps_pay_off = [&](int stage, std::size_t pose_count, int angle_first, int batch_angles) {
+        if (optional_maps[std::size_t(stage)].empty() || pose_count == 0) return false;
+        std::uint64_t pairs = 0;
+        for (const MapTest& test : optional_maps[std::size_t(stage)]) {
+            std::vector<SliceRun> runs;
+            append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first)], root_a, root_b, 0, runs);
+            for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs.by_key[std::size_t(run.key) % test.runs.by_key.size()][1]);
+        }
+        const double pose_cost = double(pose_count) * options_.pose_test_pairs;
+        return pose_cost > double(pairs) * double(batch_angles);
+    };
     for (int angle_first = 0; angle_first < range.angles; angle_first += angles_per_batch) {
         const int batch_angles = std::min(angles_per_batch, range.angles - angle_first);
         const std::uint64_t batch_poses = per_angle * std::uint64_t(batch_angles);
@@ -529,11 +570,11 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         };
         std::vector<Pose> survivors;
         if (options_.maps) {
-            // Contact, then the dictionary on the poses in contact, every offset at once.
-            const auto contact = run_map(map_stages[0].front(), 0, angle_first, batch_angles);
+            // Contact, then the required dictionary maps on the poses in contact, every offset at once.
+            const auto contact = run_map(required_maps[0].front(), 0, angle_first, batch_angles);
             lap(stats_.seconds_per_stage[0]);
             std::vector<std::vector<std::uint8_t>> dictionary;
-            for (MapTest& test : map_stages[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles));
+            for (MapTest& test : required_maps[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles));
             for (std::uint64_t p = 0; p < batch_poses; ++p) {
                 if (!contact[p]) continue;
                 ++stats_.poses_per_stage[1];
@@ -541,7 +582,6 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 if (passes_all(dictionary, p)) survivors.push_back(pose);
                 else result.outcomes[outcome_index(pose)] = PoseOutcome::FailsDictionary;
             }
-            lap(stats_.seconds_per_stage[1]);
         } else {
             // Contact on every pose of the batch: by block where blocks are on, then pose by pose.
             if (block > 1) {
@@ -568,9 +608,26 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             }
             lap(stats_.seconds_per_stage[0]);
         }
-        for (int stage = options_.maps ? 2 : 1; stage < 4; ++stage) {
-            stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
-            const auto passes = decide(stage, survivors, angle_first, batch_angles);
+        for (int stage = 1; stage < 4; ++stage) {
+            if (!options_.maps || stage > 1) stats_.poses_per_stage[std::size_t(stage)] += survivors.size();
+            if (options_.maps && stage == 1 && type.lateral_pair()) {  // the required maps decided it
+                lap(stats_.seconds_per_stage[1]);
+                continue;
+            }
+            std::vector<std::uint8_t> passes;
+            if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles)) {
+                std::vector<std::vector<std::uint8_t>> meets;
+                for (MapTest& test : optional_maps[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles));
+                passes.resize(survivors.size());
+                for (std::size_t p = 0; p < survivors.size(); ++p) {
+                    const Pose& q = survivors[p];
+                    const std::size_t at = std::size_t(q[0] - angle_first) * std::size_t(per_angle) +
+                                           std::size_t(q[2] - range.j_first) * std::size_t(range.width()) + std::size_t(q[1] - range.i_first);
+                    passes[p] = passes_all(meets, at);
+                }
+            } else {
+                passes = decide(stage, survivors, angle_first, batch_angles);
+            }
             std::vector<Pose> next;
             for (std::size_t p = 0; p < survivors.size(); ++p) {
                 if (passes[p]) next.push_back(survivors[p]);
@@ -583,10 +640,6 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         if (progress) progress(angle_first + batch_angles, range.angles);
     }
     result.count();
-    if (std::getenv("AMHV_SWEEP_STATS"))
-        for (int st = 0; st < 4; ++st)
-            fmt::print(stderr, "stage {}: {} poses, {} blocks, {} pose tests, {} pulled runs, {:.2f} s\n", st, stats_.poses_per_stage[st], stats_.blocks_per_stage[st],
-                       stats_.pose_tests_per_stage[st], stats_.pulled_runs_per_stage[st], stats_.seconds_per_stage[st]);
     return result;
 }
 

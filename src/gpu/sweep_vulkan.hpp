@@ -27,6 +27,10 @@ struct SweeperOptions {
     // Contact and the interaction dictionary by overlap maps (shaders/sweep_map.comp): every offset
     // of an angle at once, from pairs of slice runs, instead of pose by pose. Off: pose by pose.
     bool maps = true;
+    // Cost model for fidelity, visibility and the labelled dictionary tests: one pose test costs
+    // about as much as this many run pairs of a map (lavapipe, 2 cores: 5-230 us per pose test,
+    // about 6 ns per pair). 0: always pose by pose; very large: always maps.
+    double pose_test_pairs = 8000;
     // Bytes of overlap maps one batch of angles may hold.
     std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
 };
@@ -39,6 +43,7 @@ struct SweepStats {
     std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
     std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
     std::array<std::uint64_t, 4> pulled_runs_per_stage{};  // slice runs of B mapped by overlap maps
+    std::array<std::uint64_t, 4> run_pairs_per_stage{};    // pairs of fixed and pulled runs the maps visited
 };
 
 class VulkanSweeper : public Sweeper {
