@@ -8,8 +8,8 @@
 // of runs, whatever the number of poses.
 //
 // One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). The host
-// sizes the chunks so that runs * (words an interval spans + 2) stays under lavapipe's
-// per-invocation loop cap.
+// sizes the chunks so that a binary search plus runs * (words an interval spans + 2) stays under
+// lavapipe's per-invocation loop cap.
 layout(local_size_x_id = 0) in;
 
 struct Run {
@@ -20,6 +20,8 @@ layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_key
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
 // [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
 layout(std430, set = 0, binding = 3) buffer Maps { uint maps[]; };
+// Per angle in batch: the rows j (first, last) that still have poses; pairs outside are skipped.
+layout(std430, set = 0, binding = 4) readonly buffer AngleRows { ivec2 angle_rows[]; };
 
 layout(push_constant) uniform Params {
     uint item_base;
@@ -40,14 +42,23 @@ void main() {
     int angle_slot = b.key / params.zbits;
     int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;
     ivec2 key = fixed_keys[slot * params.zbits + z];
-    int first = key.x + chunk * params.runs_per_chunk;
+    ivec2 rows = angle_rows[angle];
+    int y_first = b.y + params.range_j0 + rows.x, y_last = b.y + params.range_j0 + rows.y;
+    // A key's fixed runs are sorted by y: start at the first one on row y_first or later.
+    int lo = key.x, hi = key.x + key.y;
+    while (lo < hi) {
+        int mid = (lo + hi) >> 1;
+        if (fixed_runs[mid].y < y_first) lo = mid + 1;
+        else hi = mid;
+    }
+    int first = lo + chunk * params.runs_per_chunk;
     int last = min(key.x + key.y, first + params.runs_per_chunk);
     int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
     uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
     for (int r = first; r < last; ++r) {
         Run a = fixed_runs[r];
+        if (a.y > y_last) break;
         int j = a.y - b.y - params.range_j0;
-        if (j < 0 || j >= params.range_nj) continue;
         int lo = max(a.x_first - b.x_last - params.range_i0, 0);
         int hi = min(a.x_last - b.x_first - params.range_i0, params.range_ni - 1);
         if (lo > hi) continue;

@@ -95,7 +95,7 @@ VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
     : context_(context),
       options_(options),
       overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
-      map_(context, sweep_map_spv, 4, sizeof(MapParams), {kWorkgroup}) {}
+      map_(context, sweep_map_spv, 5, sizeof(MapParams), {kWorkgroup}) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -415,13 +415,20 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
     const int angles_per_batch = int(std::max<std::uint64_t>(1, batch_limit));
 
-    // Decides `test` for every pose of the batch (implicit order) with an overlap map.
-    std::unique_ptr<Buffer> pulled, map_words;
-    auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles) {
+    // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
+    // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
+    // batch: the rows that still have poses. Bits elsewhere stay clear.
+    using Rows = std::vector<std::array<std::int32_t, 2>>;
+    std::unique_ptr<Buffer> pulled, map_words, row_ranges;
+    auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows) {
         std::vector<SliceRun> runs;
         int longest = 0;
-        for (int a = 0; a < batch_angles; ++a)
-            longest = std::max(longest, append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, runs));
+        for (int a = 0; a < batch_angles; ++a) {
+            const auto& r = rows[std::size_t(a)];
+            if (r[0] > r[1]) continue;
+            const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + r[0], range.j_first + r[1]);
+            longest = std::max(longest, append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, runs));
+        }
         // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
         // loads across a subgroup.
         std::stable_sort(runs.begin(), runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
@@ -437,17 +444,20 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
         if (!runs.empty() && !test.runs.runs.empty()) {
             // Loop steps of one fixed run: the test, then the words its interval spans.
-            const std::uint64_t per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
-            if (per_run > options_.loop_budget)
+            // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
+            const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
+            if (search + per_run > options_.loop_budget)
                 fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
-            const int runs_per_chunk = int(options_.loop_budget / per_run);
+            const int runs_per_chunk = int((options_.loop_budget - search) / per_run);
             const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
             const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
             if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
                 fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
             ensure_host_capacity(context_, pulled, runs.size() * sizeof(SliceRun));
             std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(SliceRun));
-            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get()}));
+            ensure_host_capacity(context_, row_ranges, rows.size() * 8);
+            std::memcpy(row_ranges->mapped<std::uint8_t>().data(), rows.data(), rows.size() * 8);
+            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get(), row_ranges.get()}));
             const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                    range.i_first, range.j_first, range.width(), range.height(), row_words,
                                    test.want == Want::EveryFrame ? 1 : 0};
@@ -552,7 +562,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::uint64_t pairs = 0;
         for (const MapTest& test : optional_maps[std::size_t(stage)]) {
             std::vector<SliceRun> runs;
-            append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first)], root_a, root_b, 0, runs);
+            append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first)], root_a, root_b, 0,
+                               pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first, range.j_last), runs);
             for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs.by_key[std::size_t(run.key) % test.runs.by_key.size()][1]);
         }
         const double pose_cost = double(pose_count) * options_.pose_test_pairs;
@@ -571,10 +582,18 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<Pose> survivors;
         if (options_.maps) {
             // Contact, then the required dictionary maps on the poses in contact, every offset at once.
-            const auto contact = run_map(required_maps[0].front(), 0, angle_first, batch_angles);
+            const Rows all_rows(std::size_t(batch_angles), {0, range.height() - 1});
+            const auto contact = run_map(required_maps[0].front(), 0, angle_first, batch_angles, all_rows);
             lap(stats_.seconds_per_stage[0]);
+            Rows contact_rows(std::size_t(batch_angles), {range.height(), -1});
+            for (std::uint64_t p = 0; p < batch_poses; ++p)
+                if (contact[p]) {
+                    auto& r = contact_rows[std::size_t(p / per_angle)];
+                    const std::int32_t j = std::int32_t(p % per_angle / std::uint64_t(range.width()));
+                    r = {std::min(r[0], j), std::max(r[1], j)};
+                }
             std::vector<std::vector<std::uint8_t>> dictionary;
-            for (MapTest& test : required_maps[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles));
+            for (MapTest& test : required_maps[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows));
             for (std::uint64_t p = 0; p < batch_poses; ++p) {
                 if (!contact[p]) continue;
                 ++stats_.poses_per_stage[1];
@@ -616,8 +635,13 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             }
             std::vector<std::uint8_t> passes;
             if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles)) {
+                Rows rows(std::size_t(batch_angles), {range.height(), -1});
+                for (const Pose& q : survivors) {
+                    auto& r = rows[std::size_t(q[0] - angle_first)];
+                    r = {std::min(r[0], q[2] - range.j_first), std::max(r[1], q[2] - range.j_first)};
+                }
                 std::vector<std::vector<std::uint8_t>> meets;
-                for (MapTest& test : optional_maps[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles));
+                for (MapTest& test : optional_maps[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles, rows));
                 passes.resize(survivors.size());
                 for (std::size_t p = 0; p < survivors.size(); ++p) {
                     const Pose& q = survivors[p];

@@ -108,7 +108,7 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
 
 int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots, const posemap::Trig& trig,
                        const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b, int angle_in_batch,
-                       std::vector<SliceRun>& out) {
+                       const std::array<std::int32_t, 4>& clip, std::vector<SliceRun>& out) {
     check_lattice(moving.x0, moving.y0, moving.nx, moving.ny);
     const int zbits = 32 * moving.zwords;
     int longest = 0;
@@ -116,7 +116,8 @@ int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots
     for (std::size_t s = 0; s < slots.size(); ++s) {
         const int slot = slots[s];
         if (slot < 0 || slot >= moving.slots) fail("sweep", "internal: slot {} of a volume with {} slots", slot, moving.slots);
-        const auto box = mapped_bounds(moving, moving.slot_boxes[std::size_t(slot)], trig, root_a, root_b);
+        auto box = mapped_bounds(moving, moving.slot_boxes[std::size_t(slot)], trig, root_a, root_b);
+        box = {std::max(box[0], clip[0]), std::max(box[1], clip[1]), std::min(box[2], clip[2]), std::min(box[3], clip[3])};
         const std::int32_t key_base = (std::int32_t(angle_in_batch) * std::int32_t(slots.size()) + std::int32_t(s)) * zbits;
         for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
             row.start_row(gy, key_base, out, longest);
@@ -132,6 +133,12 @@ int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots
         }
     }
     return longest;
+}
+
+std::array<std::int32_t, 4> pulled_clip(const ColumnVolume& fixed, int i_first, int i_last, int j_first, int j_last) {
+    if (fixed.empty() || i_first > i_last || j_first > j_last) return {1, 1, 0, 0};
+    return {std::int32_t(fixed.x0 + fixed.x_first - i_last), std::int32_t(fixed.y0 + fixed.y_first - j_last),
+            std::int32_t(fixed.x0 + fixed.x_last - i_first), std::int32_t(fixed.y0 + fixed.y_last - j_first)};
 }
 
 }  // namespace amhv

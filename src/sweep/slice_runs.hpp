@@ -35,9 +35,15 @@ struct FixedRuns {
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
 
 // Appends the runs of `moving` pulled under A's lattice at pose (0, 0, angle) (the mapping of
-// pose_map.hpp), for `slots`, with keys for `angle_in_batch`. Returns the longest run appended.
+// pose_map.hpp), for `slots`, with keys for `angle_in_batch`, cut to the columns in `clip`
+// ([x_first, y_first, x_last, y_last], global A lattice). Returns the longest run appended.
 int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots, const posemap::Trig& trig,
                        const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b, int angle_in_batch,
-                       std::vector<SliceRun>& out);
+                       const std::array<std::int32_t, 4>& clip, std::vector<SliceRun>& out);
+
+// The pulled columns that can meet `fixed` at an offset (i, j) with i in [i_first, i_last] and j
+// in [j_first, j_last]: column g meets fixed column g + (i, j), so g lies in the fixed volume's
+// occupied box shifted by minus those offsets. Runs cut to this box give the same map.
+std::array<std::int32_t, 4> pulled_clip(const ColumnVolume& fixed, int i_first, int i_last, int j_first, int j_last);
 
 }  // namespace amhv
