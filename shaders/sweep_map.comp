@@ -15,7 +15,9 @@ layout(local_size_x_id = 0) in;
 struct Run {
     int y, x_first, x_last, key;
 };
-layout(std430, set = 0, binding = 0) readonly buffer FixedRuns { Run fixed_runs[]; };  // sorted by key
+// Packed to halve the loads: (y, x_first | x_last << 16), relative to (fixed_x0, fixed_y0); sorted
+// by key, then y.
+layout(std430, set = 0, binding = 0) readonly buffer FixedRuns { uvec2 fixed_runs[]; };
 layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_keys[]; };  // per key: first run, count
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
 // [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
@@ -31,6 +33,7 @@ layout(push_constant) uniform Params {
     int range_i0, range_j0, range_ni, range_nj, row_words;
     // 1: one map per slot pair (every-frame tests); 0: one map for all.
     int map_per_slot;
+    int fixed_x0, fixed_y0;
 } params;
 
 void main() {
@@ -43,12 +46,12 @@ void main() {
     int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;
     ivec2 key = fixed_keys[slot * params.zbits + z];
     ivec2 rows = angle_rows[angle];
-    int y_first = b.y + params.range_j0 + rows.x, y_last = b.y + params.range_j0 + rows.y;
+    int y_first = b.y + params.range_j0 + rows.x - params.fixed_y0, y_last = b.y + params.range_j0 + rows.y - params.fixed_y0;
     // A key's fixed runs are sorted by y: start at the first one on row y_first or later.
     int lo = key.x, hi = key.x + key.y;
     while (lo < hi) {
         int mid = (lo + hi) >> 1;
-        if (fixed_runs[mid].y < y_first) lo = mid + 1;
+        if (int(fixed_runs[mid].x) < y_first) lo = mid + 1;
         else hi = mid;
     }
     int first = lo + chunk * params.runs_per_chunk;
@@ -56,11 +59,13 @@ void main() {
     int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
     uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
     for (int r = first; r < last; ++r) {
-        Run a = fixed_runs[r];
-        if (a.y > y_last) break;
-        int j = a.y - b.y - params.range_j0;
-        int lo = max(a.x_first - b.x_last - params.range_i0, 0);
-        int hi = min(a.x_last - b.x_first - params.range_i0, params.range_ni - 1);
+        uvec2 a = fixed_runs[r];
+        int a_y = int(a.x);
+        if (a_y > y_last) break;
+        int j = a_y + params.fixed_y0 - b.y - params.range_j0;
+        int a_x_first = int(a.y & 0xffffu) + params.fixed_x0, a_x_last = int(a.y >> 16u) + params.fixed_x0;
+        int lo = max(a_x_first - b.x_last - params.range_i0, 0);
+        int hi = min(a_x_last - b.x_first - params.range_i0, params.range_ni - 1);
         if (lo > hi) continue;
         uint row = map_base + uint(j) * uint(params.row_words);
         for (int w = lo >> 5; w <= hi >> 5; ++w) {

@@ -38,6 +38,7 @@ struct MapParams {
     std::int32_t zbits, slot_count;
     std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
     std::int32_t map_per_slot;
+    std::int32_t fixed_x0, fixed_y0;
 };
 static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
@@ -199,7 +200,16 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             for (auto& stage : *all)
                 for (MapTest& test : stage) {
                     test.runs = fixed_runs(*test.fixed, test.slots);
-                    test.fixed_runs = upload_to_host(context_, test.runs.runs.data(), test.runs.runs.size() * sizeof(SliceRun));
+                    // Packed (y, x_first | x_last << 16) relative to the volume's origin.
+                    if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
+                        fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel",
+                             test.fixed->nx, test.fixed->ny);
+                    std::vector<std::array<std::uint32_t, 2>> packed;
+                    packed.reserve(test.runs.runs.size());
+                    for (const SliceRun& run : test.runs.runs)
+                        packed.push_back({std::uint32_t(run.y - test.fixed->y0),
+                                          std::uint32_t(run.x_first - test.fixed->x0) | std::uint32_t(run.x_last - test.fixed->x0) << 16});
+                    test.fixed_runs = upload_to_host(context_, packed.data(), packed.size() * 8);
                     test.fixed_keys = upload_to_host(context_, test.runs.by_key.data(), test.runs.by_key.size() * 8);
                 }
     }
@@ -460,7 +470,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get(), row_ranges.get()}));
             const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                    range.i_first, range.j_first, range.width(), range.height(), row_words,
-                                   test.want == Want::EveryFrame ? 1 : 0};
+                                   test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0)};
             stats_.work_items += items;
             sequence.dispatch(map_, *set, params, std::uint32_t(items));
         }
