@@ -453,7 +453,6 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         sequence.barrier();
         std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
         if (!runs.empty() && !test.runs.runs.empty()) {
-            // Loop steps of one fixed run: the test, then the words its interval spans.
             // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
             const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
             if (search + per_run > options_.loop_budget)
