@@ -64,6 +64,7 @@ void B2_sweep_vulkan(benchmark::State& state) {
         state.counters[fmt::format("{}_poses", names[s])] = double(stats.poses_per_stage[std::size_t(s)]);
         state.counters[fmt::format("{}_blocks", names[s])] = double(stats.blocks_per_stage[std::size_t(s)]);
         state.counters[fmt::format("{}_pose_tests", names[s])] = double(stats.pose_tests_per_stage[std::size_t(s)]);
+        state.counters[fmt::format("{}_run_pairs", names[s])] = double(stats.run_pairs_per_stage[std::size_t(s)]);
     }
     state.SetLabel(fmt::format("{} | {} | full sweep", sweeper.name(), describe_problem(p)));
 }
