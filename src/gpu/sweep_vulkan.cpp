@@ -64,13 +64,12 @@ struct OverlapTest {
     GpuVolume* moving;  // B's side: pulled under A's columns
     int frames;         // 0: unions only
     Want want;
-    bool per_frame() const { return want == Want::EveryFrame; }
-    std::int32_t mode() const { return per_frame() ? kModePerFrame : kModeAny; }
+    std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
     // The z words where both volumes have bits (first > last: the test cannot find an overlap).
     int word_first() const { return std::max(fixed->columns.word_first, moving->columns.word_first); }
     int word_last() const { return std::min(fixed->columns.word_last, moving->columns.word_last); }
     int words() const { return std::max(0, word_last() - word_first() + 1); }
-    int flag_words() const { return per_frame() ? (frames + 31) / 32 : 1; }
+    int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
 };
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
@@ -83,6 +82,12 @@ struct MapTest {
     FixedRuns runs;
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
+    // Pairs of runs the map kernel visits for `pulled` (before the row limits).
+    std::uint64_t pairs(const std::vector<SliceRun>& pulled) const {
+        std::uint64_t total = 0;
+        for (const SliceRun& run : pulled) total += std::uint64_t(runs.by_key[std::size_t(run.key) % runs.by_key.size()][1]);
+        return total;
+    }
 };
 
 struct Blocks {
@@ -254,7 +259,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             test.moving->angles = upload_to_host(context_, table.data(), table.size());
         });
     for_each_test([&](const OverlapTest& test) {
-            if (!test.per_frame()) return;
+            if (test.want != Want::EveryFrame) return;
             if (!test.fixed->frame_boxes) {
                 const auto& boxes = test.fixed->columns.slot_boxes;
                 test.fixed->frame_boxes = upload_to_host(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
@@ -274,7 +279,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const ColumnVolume& s = test.fixed->columns;
         // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
         // frame, then give the item as many frames as fit.
-        const bool per_frame = test.per_frame();
+        const bool per_frame = test.want == Want::EveryFrame;
         const std::uint64_t per_column = per_frame ? std::uint64_t(test.words()) + 2 : std::uint64_t(test.words()) * (1 + test.frames) + 2;
         if (per_column > options_.loop_budget)
             fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
@@ -329,8 +334,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const Blocks b = blocks_of(test);
             const int words = test.flag_words();
             const bool every_frame = test.want == Want::EveryFrame;
-            const bool per_frame = test.per_frame();
-            const int wave = per_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
+            const int wave = every_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
             std::vector<std::uint32_t> found(count * std::uint64_t(words), 0u);
             std::vector<std::uint64_t> live(count);
             for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
@@ -379,7 +383,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                     if (every_frame) {
                         for (int t2 = 0; t2 < frames_done && !decided; ++t2) decided = (w[t2 >> 5] & (1u << (t2 & 31))) == 0;
                     } else {
-                        decided = std::any_of(w, w + words, [](std::uint32_t q) { return q != 0u; });
+                        decided = w[0] != 0;
                     }
                     if (!decided) undecided.push_back(live[l]);
                 }
@@ -396,7 +400,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                         ok = ok && (w[q] & all) == all;
                     }
                 } else {
-                    ok = std::any_of(w, w + words, [](std::uint32_t q) { return q != 0u; }) == (test.want == Want::Overlap);
+                    ok = (w[0] != 0) == (test.want == Want::Overlap);
                 }
                 meets[t][p] = ok;
             }
@@ -443,8 +447,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         // loads across a subgroup.
         std::stable_sort(runs.begin(), runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
         stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
-        const std::size_t fixed_keys = test.runs.by_key.size();
-        for (const SliceRun& run : runs) stats_.run_pairs_per_stage[std::size_t(stage)] += std::uint64_t(test.runs.by_key[std::size_t(run.key) % fixed_keys][1]);
+        stats_.run_pairs_per_stage[std::size_t(stage)] += test.pairs(runs);
         const int maps = test.maps_per_angle();
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
         ensure_host_capacity(context_, map_words, map_bytes);
@@ -573,7 +576,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             std::vector<SliceRun> runs;
             append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first)], root_a, root_b, 0,
                                pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first, range.j_last), runs);
-            for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs.by_key[std::size_t(run.key) % test.runs.by_key.size()][1]);
+            pairs += test.pairs(runs);
         }
         const double pose_cost = double(pose_count) * options_.pose_test_pairs;
         return pose_cost > double(pairs) * double(batch_angles);
@@ -654,9 +657,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 passes.resize(survivors.size());
                 for (std::size_t p = 0; p < survivors.size(); ++p) {
                     const Pose& q = survivors[p];
-                    const std::size_t at = std::size_t(q[0] - angle_first) * std::size_t(per_angle) +
-                                           std::size_t(q[2] - range.j_first) * std::size_t(range.width()) + std::size_t(q[1] - range.i_first);
-                    passes[p] = passes_all(meets, at);
+                    // The maps hold the batch's poses in outcome order, starting at angle_first.
+                    passes[p] = passes_all(meets, outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle));
                 }
             } else {
                 passes = decide(stage, survivors, angle_first, batch_angles);
