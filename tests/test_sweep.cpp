@@ -13,6 +13,7 @@
 #include "reference/voxelise_reference.hpp"
 #include "sweep/column_volume.hpp"
 #include "sweep/objects.hpp"
+#include "sweep/slice_runs.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -258,6 +259,36 @@ TEST(Sweep, WorkSplittingMatchesReference) {
             EXPECT_GT(both.gpu.rejected[1], 0u);
         }
     }
+}
+
+// The overlap-map kernel walks the fixed runs of one z in chunks. Here A is a comb of 400 thin
+// bars along y at one height, 400 runs on every row: a pulled run of B walks every run on the 201
+// rows of the range at its z, about 80,000 runs, past lavapipe's silent loop cap (about 65,535
+// steps) for one invocation. Walked in one piece (one chunk per key) it loses 720 poses; the
+// default budget splits it. One angle keeps the voxel-by-voxel reference quick.
+TEST(Sweep, MapChunksCoverManyRunsPerSlice) {
+    const double h = 0.01, pitch = 0.025, side = 0.012;
+    TriangleMesh comb;
+    for (int col = 0; col < 400; ++col) {
+        const Vec3 corner(col * pitch + 0.004, 0.004, 1.004);
+        comb.append(shapes::box(corner, corner + Vec3(side, 2.1, side)));  // every row B can reach
+    }
+    Performer a, b;
+    for (int f = 0; f < 2; ++f) {
+        a.body.push_back(frame_of(comb, f));
+        b.body.push_back(frame_of(shapes::box(Vec3(-0.996, -0.996, 1.004), Vec3(-0.988, -0.988, 1.016)), f));  // one voxel wide
+    }
+    ObjectParts whole{.interest = PartRule::Whole};
+    auto problem = problem_of(object_from("A", a, h, whole), object_from("B", b, h, whole), "0&0b", h, 360);
+    const std::array<double, 2> x_range{1.0, 1.1}, y_range{-1.0, 1.0};  // offsets of the roots: about all of A's rows
+    narrow_range(problem.range, h, &x_range, &y_range);
+    ASSERT_EQ(problem.range.height(), 201);
+    const ZFrame z = z_frame_covering({&problem.a.whole.grid(), &problem.b.whole.grid()});
+    ASSERT_GT(fixed_runs(columns_of(problem.a.interest, z, false), {0}).most_per_key, 70000);
+    auto both = sweep_both(problem);
+    expect_identical(both);
+    EXPECT_GT(both.gpu.solutions, 0u);
+    EXPECT_GT(both.gpu.rejected[0], 0u);
 }
 
 // Pooling over a block of offsets: every column of the result is the OR of the block's columns.
