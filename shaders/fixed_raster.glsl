@@ -33,3 +33,14 @@ ivec2 centre_range(int lo, int hi) {
     int last = int(floor_div(int64_t(hi) - half_voxel, SUBVOXEL));
     return ivec2(first, last);
 }
+
+// floor(n / d) for d > 0 without a 64-bit division (which lavapipe runs lane by lane): a float
+// estimate, exact to within one when |n / d| stays below a few thousand (a crossing layer always
+// does: it lies within the triangle's z range), then corrected with one exact product.
+int64_t floor_div_estimated(int64_t n, int64_t d) {
+    int64_t q = int64_t(floor(float(n) / float(d)));
+    int64_t r = n - q * d;
+    if (r < 0) q -= 1;
+    else if (r >= d) q += 1;
+    return q;
+}

@@ -1,14 +1,21 @@
 #version 450
-// Pass 1 of the solid voxelisation: every invocation takes one (triangle, tile of columns) work item,
-// finds the columns whose centre the triangle's xy-projection covers, and records the signed ray
-// crossing in the column's delta list: delta[frame][z][y][x] += winding change at the first voxel
-// centre above the crossing. A prefix sum along z (voxel_columns.comp) then gives the winding number.
+// Passes 1 and 3 of the solid voxelisation. Every invocation takes one (triangle, tile of columns)
+// work item and finds the columns whose centre the triangle's xy-projection covers. A bucket is
+// one (frame slot, column): index slot * columns + column.
+//   COUNT (mode 0): counts the crossings of every bucket, so voxel_allocate.comp can give each
+//                   bucket a contiguous stretch of the key list.
+//   FILL  (mode 1): appends the crossing key (layer << 1 | upward) to its bucket's stretch, where
+//                   layer is the first voxel centre above the crossing, relative to the slab
+//                   (crossings below the slab count from its first layer; those above it affect no
+//                   voxel of the slab and are left out).
+// Both modes run the same exact coverage test, so FILL never writes more keys than COUNT counted.
 // Work per invocation is at most TILE*TILE columns, well under lavapipe's loop cap.
 #extension GL_GOOGLE_include_directive : require
 #include "fixed_raster.glsl"
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const int TILE = 16;
+layout(constant_id = 2) const int MODE = 0;  // 0 = count, 1 = fill
 
 struct Triangle {
     ivec4 a;  // xyz fixed point; a.w = frame slot within the batch
@@ -17,11 +24,9 @@ struct Triangle {
 };
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer WorkItems { uvec2 work_items[]; };  // (triangle, tile x | tile y << 16)
-layout(std430, set = 0, binding = 2) buffer Deltas { int deltas[]; };
-// Per column of the slab: lowest and highest layer that received a crossing in this batch, so the
-// column pass can skip empty columns and stop early.
-layout(std430, set = 0, binding = 3) buffer FirstLayer { int first_layer[]; };
-layout(std430, set = 0, binding = 4) buffer LastLayer { int last_layer[]; };
+// COUNT: crossings per bucket. FILL: the next free key slot of each bucket.
+layout(std430, set = 0, binding = 2) buffer BucketCounters { uint bucket_counter[]; };
+layout(std430, set = 0, binding = 3) writeonly buffer Keys { uint keys[]; };
 
 layout(push_constant) uniform Params {
     uint work_base;
@@ -43,10 +48,10 @@ void main() {
     ivec3 a = tri.a.xyz;
     ivec3 b = tri.b.xyz;
     ivec3 c = tri.c.xyz;
-    int frame_slot = tri.a.w;
+    uint frame_slot = uint(tri.a.w);
     int64_t area = edge_function(a.xy, b.xy, c.xy);
     if (area == 0) return;  // seen edge-on from above: the vertical ray never crosses it
-    int winding_change = area > 0 ? -1 : 1;  // a downward-facing face below a point adds +1
+    uint upward = area > 0 ? 0u : 1u;  // a downward-facing face below a point adds +1 to its winding
     if (area < 0) { ivec3 t = b; b = c; c = t; area = -area; }
 
     ivec2 range_x = centre_range(min(a.x, min(b.x, c.x)), max(a.x, max(b.x, c.x)));
@@ -56,27 +61,52 @@ void main() {
     int y_first = max(max(range_y.x, tile_y), 0);
     int y_last = min(min(range_y.y, tile_y + TILE - 1), params.ny - 1);
 
+    // The edge functions and the crossing numerator are linear in the sample point, so they are
+    // evaluated exactly once at the first column and then stepped by integer additions (the same
+    // integers fixed_raster.hpp computes directly).
     int64_t half_voxel = SUBVOXEL / 2;
+    ivec2 p0 = ivec2(x_first * int(SUBVOXEL) + int(half_voxel), y_first * int(SUBVOXEL) + int(half_voxel));
+    int64_t row_wa = edge_function(b.xy, c.xy, p0);
+    int64_t row_wb = edge_function(c.xy, a.xy, p0);
+    int64_t row_wc = edge_function(a.xy, b.xy, p0);
+    // edge_function(u, v, p) grows by -(v.y - u.y) per unit of p.x and by (v.x - u.x) per unit of p.y.
+    int64_t step_x_wa = -int64_t(c.y - b.y) * SUBVOXEL, step_y_wa = int64_t(c.x - b.x) * SUBVOXEL;
+    int64_t step_x_wb = -int64_t(a.y - c.y) * SUBVOXEL, step_y_wb = int64_t(a.x - c.x) * SUBVOXEL;
+    int64_t step_x_wc = -int64_t(b.y - a.y) * SUBVOXEL, step_y_wc = int64_t(b.x - a.x) * SUBVOXEL;
+    // Crossing height z = (wa*za + wb*zb + wc*zc) / area; voxel k's centre is above it when
+    // (k*S + S/2) * area > numerator, so the first such k is floor((num - S/2*area)/(S*area)) + 1.
+    int64_t row_numerator = row_wa * int64_t(a.z) + row_wb * int64_t(b.z) + row_wc * int64_t(c.z) - half_voxel * area;
+    int64_t step_x_numerator = step_x_wa * int64_t(a.z) + step_x_wb * int64_t(b.z) + step_x_wc * int64_t(c.z);
+    int64_t step_y_numerator = step_y_wa * int64_t(a.z) + step_y_wb * int64_t(b.z) + step_y_wc * int64_t(c.z);
+    int64_t layer_divisor = SUBVOXEL * area;
+    bool top_left_a = is_top_left(b.xy, c.xy), top_left_b = is_top_left(c.xy, a.xy), top_left_c = is_top_left(a.xy, b.xy);
+
     for (int y = y_first; y <= y_last; ++y) {
+        int64_t wa = row_wa, wb = row_wb, wc = row_wc, numerator = row_numerator;
         for (int x = x_first; x <= x_last; ++x) {
-            ivec2 p = ivec2(x * int(SUBVOXEL) + int(half_voxel), y * int(SUBVOXEL) + int(half_voxel));
-            int64_t wa = edge_function(b.xy, c.xy, p);
-            int64_t wb = edge_function(c.xy, a.xy, p);
-            int64_t wc = edge_function(a.xy, b.xy, p);
-            if (!(covers(wa, b.xy, c.xy) && covers(wb, c.xy, a.xy) && covers(wc, a.xy, b.xy))) continue;
-            // Crossing height z = (wa*za + wb*zb + wc*zc) / area; voxel k's centre is above it when
-            // (k*S + S/2) * area > numerator, so the first such k is floor((num - S/2*area)/(S*area)) + 1.
-            int64_t numerator = wa * int64_t(a.z) + wb * int64_t(b.z) + wc * int64_t(c.z);
-            int64_t first_above = floor_div(numerator - half_voxel * area, SUBVOXEL * area) + 1;
-            int64_t layer = first_above - int64_t(params.z_begin);
-            if (layer >= int64_t(params.slab_layers)) continue;  // above this slab: affects no voxel here
-            int slab_z = int(max(layer, int64_t(0)));            // below the slab: counts from its first layer
-            uint index = ((uint(frame_slot) * uint(params.slab_layers) + uint(slab_z)) * uint(params.ny) + uint(y))
-                         * uint(params.nx) + uint(x);
-            atomicAdd(deltas[index], winding_change);
-            uint column = uint(y) * uint(params.nx) + uint(x);
-            atomicMin(first_layer[column], slab_z);
-            atomicMax(last_layer[column], slab_z);
+            bool covered = (wa > 0 || (wa == 0 && top_left_a)) && (wb > 0 || (wb == 0 && top_left_b)) &&
+                           (wc > 0 || (wc == 0 && top_left_c));
+            if (covered) {
+                uint bucket = (frame_slot * uint(params.ny) + uint(y)) * uint(params.nx) + uint(x);
+                if (MODE == 0) {
+                    atomicAdd(bucket_counter[bucket], 1u);
+                } else {
+                    int64_t layer = floor_div_estimated(numerator, layer_divisor) + 1 - int64_t(params.z_begin);
+                    // Above this slab: affects no voxel here. Below it: counts from its first layer.
+                    if (layer < int64_t(params.slab_layers)) {
+                        uint slot = atomicAdd(bucket_counter[bucket], 1u);
+                        keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
+                    }
+                }
+            }
+            wa += step_x_wa;
+            wb += step_x_wb;
+            wc += step_x_wc;
+            numerator += step_x_numerator;
         }
+        row_wa += step_y_wa;
+        row_wb += step_y_wb;
+        row_wc += step_y_wc;
+        row_numerator += step_y_numerator;
     }
 }

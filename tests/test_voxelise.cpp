@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "body/shapes.hpp"
+#include "core/error.hpp"
 #include "core/voxelise.hpp"
 #include "gpu/voxelise_vulkan.hpp"
 #include "reference/voxelise_reference.hpp"
@@ -142,6 +143,28 @@ TEST(Voxelise, SplittingAndLargeTrianglesMatchReference) {
         for (int z = 0; z < grid.dims[2]; ++z) layers += both.gpu.occupied(grid.index(cx, cy, z), f);
         EXPECT_NEAR(layers, (0.05 + 0.002 * f) / 0.005, 1.0) << "frame " << f;
     }
+}
+
+// A column that crosses one frame's surface more often than the windings kernel sorts is an error
+// that names the frame, never a silently wrong volume. Two stacked boxes cross their shared columns
+// four times; a limit of 3 must refuse frame 1 (frame 0 has one box), a limit of 4 must pass.
+TEST(Voxelise, TooManyCrossingsPerColumnIsAnErrorNamingTheFrame) {
+    TriangleMesh stacked = shapes::box({0.0, 0.0, 0.0}, {0.2, 0.2, 0.1});
+    stacked.append(shapes::box({0.0, 0.0, 0.2}, {0.2, 0.2, 0.3}));
+    auto input = prepare_voxelisation(sequence_of({shapes::box({0.0, 0.0, 0.0}, {0.2, 0.2, 0.1}), stacked}), 0.01);
+    gpu::VulkanVoxeliser strict(test::context(), {.max_column_crossings = 3});
+    try {
+        voxelise(input, strict);
+        ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("frame 1: a voxel column crosses the surface more than 3 times"), std::string::npos)
+            << e.what();
+    }
+    gpu::VulkanVoxeliser enough(test::context(), {.max_column_crossings = 4});
+    ReferenceVoxeliser reference;
+    Both both{voxelise(input, reference), voxelise(input, enough), {}};
+    expect_identical(both);
+    test::expect_no_validation_messages();
 }
 
 }  // namespace

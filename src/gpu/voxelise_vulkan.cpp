@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <cstring>
 #include <memory>
+#include <optional>
 
 #include "core/error.hpp"
+#include "voxel_allocate.spv.h"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
+#include "voxel_windings.spv.h"
 
 namespace amhv::gpu {
 
@@ -21,17 +24,40 @@ struct RasterParams {
     std::uint32_t work_base, work_count;
     std::int32_t nx, ny, z_begin, slab_layers;
 };
-struct ColumnParams {
-    std::uint32_t column_base, column_count;
-    std::int32_t nx, ny, slab_layers, frames, bit_offset, padding;
+struct AllocateParams {
+    std::uint32_t bucket_base, bucket_count;
 };
+struct WindingParams {
+    std::uint32_t bucket_base, bucket_count, columns;
+    std::int32_t slab_layers, bit_offset;
+};
+struct ColumnParams {
+    std::uint32_t column_base, column_count, columns;
+};
+
+// A closed frame's triangles that a vertical ray can cross, with the columns their bounding boxes
+// clip to (the upper bound on the crossings they can write).
+template <typename Visit>
+void for_each_crossable(const PreparedFrame& frame, int nx, int ny, Visit&& visit) {
+    for (const auto& t : frame.triangles) {
+        fixed::Oriented oriented;
+        if (!fixed::orient(t, oriented)) continue;
+        int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
+        int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
+        if (x0 > x1 || y0 > y1) continue;  // covers no column centre
+        visit(t, x0, x1, y0, y1);
+    }
+}
 
 }  // namespace
 
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
-      raster_(context, voxel_raster_spv, 5, sizeof(RasterParams), {kWorkgroup, kTile}),
+      count_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 0}),
+      allocate_(context, voxel_allocate_spv, 4, sizeof(AllocateParams), {kWorkgroup}),
+      fill_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 1}),
+      windings_(context, voxel_windings_spv, 7, sizeof(WindingParams), {kWorkgroup, options.max_column_crossings}),
       columns_(context, voxel_columns_spv, 4, sizeof(ColumnParams), {kWorkgroup}) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
@@ -40,7 +66,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const auto& grid = input.grid;
     const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
     const int frames = int(input.frames.size());
-    const std::uint64_t layer_bytes = std::uint64_t(nx) * ny * 4;
+    const std::uint32_t columns = std::uint32_t(nx) * std::uint32_t(ny);
+    const std::uint64_t layer_bytes = std::uint64_t(columns) * 4;
 
     std::uint64_t budget = options_.max_buffer_bytes;
     if (budget == 0) {
@@ -51,29 +78,67 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         throw Error(fmt::format("one {}x{} layer of the grid needs {:.1f} MiB, more than the {:.1f} MiB storage buffer limit",
                                 nx, ny, double(layer_bytes) / (1 << 20), double(budget) / (1 << 20)));
 
-    // Split: z into slabs as tall as one buffer allows (usually the whole grid, so every frame is
-    // rasterised once), then as many frames per batch as the delta volume can hold (at most one
-    // occupancy word, and few enough that the column loop stays under the loop budget).
-    plan_ = {};
-    plan_.slab_layers = int(std::min<std::uint64_t>(
-        {std::uint64_t(nz), budget / layer_bytes, std::uint64_t(kColumnLoopBudget / 2)}));
-    plan_.frames_per_batch = int(std::min<std::uint64_t>(
-        {32, std::uint64_t(frames), budget / (layer_bytes * plan_.slab_layers),
-         std::uint64_t(kColumnLoopBudget / plan_.slab_layers - 1)}));
-    plan_.frames_per_batch = std::max(plan_.frames_per_batch, 1);
-    plan_.slabs = (nz + plan_.slab_layers - 1) / plan_.slab_layers;
+    // Upper bound on the crossing keys of each frame: the columns its triangles' boxes cover.
+    const std::uint64_t key_limit = budget / 4;
+    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0);
+    for (int f = 0; f < frames; ++f) {
+        const PreparedFrame& frame = input.frames[std::size_t(f)];
+        if (!frame.closed) continue;  // the host's surface rule handles it
+        for_each_crossable(frame, nx, ny, [&](const fixed::Triangle&, int x0, int x1, int y0, int y1) {
+            frame_keys[std::size_t(f)] += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
+        });
+        if (frame_keys[std::size_t(f)] > key_limit)
+            throw Error(fmt::format("{}: the frame's triangles cover up to {} voxel columns, more crossings than one "
+                                    "{:.1f} MiB storage buffer holds ({}); use a coarser voxel or --backend cpu",
+                                    frame.source, frame_keys[std::size_t(f)], double(budget) / (1 << 20), key_limit));
+    }
 
-    Buffer deltas(context_, layer_bytes * plan_.slab_layers * plan_.frames_per_batch, Buffer::Memory::Device);
-    Buffer mask(context_, layer_bytes * plan_.slab_layers, Buffer::Memory::Host);
+    // Split: z into slabs as tall as one mask buffer allows (usually the whole grid, so every frame
+    // is rasterised once), and each occupancy word's frames into batches whose keys and buckets
+    // (one counter per frame and column) fit one buffer each.
+    plan_ = {};
+    plan_.slab_layers = int(std::min<std::uint64_t>({std::uint64_t(nz), budget / layer_bytes, std::uint64_t(kMaxSlabLayers)}));
+    plan_.slabs = (nz + plan_.slab_layers - 1) / plan_.slab_layers;
+    const int frames_limit = int(std::min<std::uint64_t>(32, budget / layer_bytes));
+    // The frames of the batch starting at `first` (inside its word).
+    auto batch_length = [&](int first, int word_last) {
+        int length = 0;
+        std::uint64_t keys = 0;
+        while (first + length < word_last && length < frames_limit &&
+               (length == 0 || keys + frame_keys[std::size_t(first + length)] <= key_limit))
+            keys += frame_keys[std::size_t(first + length++)];
+        return length;
+    };
+    for (int first = 0; first < frames;) {
+        int length = batch_length(first, std::min(frames, (first / 32 + 1) * 32));
+        std::uint64_t keys = 0;
+        for (int f = first; f < first + length; ++f) keys += frame_keys[std::size_t(f)];
+        plan_.key_capacity = std::max(plan_.key_capacity, keys);
+        plan_.frames_per_batch = std::max(plan_.frames_per_batch, length);
+        first += length;
+    }
+
+    const std::uint64_t slab_bytes = layer_bytes * std::uint64_t(plan_.slab_layers);
+    const std::uint64_t bucket_bytes = layer_bytes * std::uint64_t(plan_.frames_per_batch);
+    Buffer mask(context_, slab_bytes, Buffer::Memory::Host);
+    Buffer toggles(context_, slab_bytes, Buffer::Memory::Device);
     Buffer first_layer(context_, layer_bytes, Buffer::Memory::Device);
     Buffer last_layer(context_, layer_bytes, Buffer::Memory::Device);
+    Buffer bucket_count(context_, bucket_bytes, Buffer::Memory::Device);
+    Buffer bucket_start(context_, bucket_bytes, Buffer::Memory::Device);
+    Buffer bucket_cursor(context_, bucket_bytes, Buffer::Memory::Device);
+    Buffer keys(context_, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
+    Buffer keys_allocated(context_, 4, Buffer::Memory::Device);
+    Buffer overflow(context_, 4, Buffer::Memory::Host);
+    std::uint32_t& first_overflowing_slot = overflow.mapped<std::uint32_t>()[0];
+    first_overflowing_slot = ~0u;
     std::unique_ptr<Buffer> triangles, work_items;
     Sequence sequence(context_);
-    const std::uint32_t columns = std::uint32_t(nx) * std::uint32_t(ny);
-    // Cleared once: afterwards the column pass resets every delta and range marker it consumed.
-    sequence.fill(deltas, deltas.size(), 0u);
-    sequence.fill(first_layer, first_layer.size(), 0x7fffffffu);
-    sequence.fill(last_layer, last_layer.size(), 0xffffffffu);
+    // Cleared once: afterwards the passes reset every counter, flip word and range marker they consume.
+    sequence.fill(bucket_count, bucket_bytes, 0u);
+    sequence.fill(toggles, slab_bytes, 0u);
+    sequence.fill(first_layer, layer_bytes, 0x7fffffffu);
+    sequence.fill(last_layer, layer_bytes, 0xffffffffu);
 
     // Host side of a batch: its triangles and one work item per (triangle, covered tile).
     std::vector<GpuTriangle> batch_triangles;
@@ -83,13 +148,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         batch_items.clear();
         for (int slot = 0; slot < batch_frames; ++slot) {
             const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
-            if (!frame.closed) continue;  // the host's surface rule handles it
-            for (const auto& t : frame.triangles) {
-                fixed::Oriented oriented;
-                if (!fixed::orient(t, oriented)) continue;
-                int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
-                int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
-                if (x0 > x1 || y0 > y1) continue;  // covers no column centre
+            if (!frame.closed) continue;
+            for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
                 auto index = std::uint32_t(batch_triangles.size());
                 batch_triangles.push_back({{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}});
                 for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
@@ -97,7 +157,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                         batch_items.push_back(index);
                         batch_items.push_back(std::uint32_t(tx) | (std::uint32_t(ty) << 16));
                     }
-            }
+            });
         }
     };
 
@@ -109,31 +169,56 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             // The word's bits accumulate in `mask` over its batches; it is cleared once per slab.
             sequence.fill(mask, layer_bytes * slab_layers, 0u);
             bool any_work = false;
-            for (int batch_first = word_first; batch_first < word_last; batch_first += plan_.frames_per_batch) {
-                const int batch_frames = std::min(plan_.frames_per_batch, word_last - batch_first);
+            for (int batch_first = word_first; batch_first < word_last;) {
+                const int batch_frames = batch_length(batch_first, word_last);
                 gather(batch_first, batch_frames);
                 ++plan_.batches;
                 plan_.work_items += batch_items.size() / 2;
-                if (batch_items.empty()) continue;  // no closed surface in this batch: its bits stay 0
+                if (batch_items.empty()) {  // no closed surface in this batch: its bits stay 0
+                    batch_first += batch_frames;
+                    continue;
+                }
                 any_work = true;
                 ensure_host_capacity(context_, triangles, batch_triangles.size() * sizeof(GpuTriangle));
                 ensure_host_capacity(context_, work_items, batch_items.size() * sizeof(std::uint32_t));
                 std::memcpy(triangles->mapped<GpuTriangle>().data(), batch_triangles.data(), batch_triangles.size() * sizeof(GpuTriangle));
                 std::memcpy(work_items->mapped<std::uint32_t>().data(), batch_items.data(), batch_items.size() * sizeof(std::uint32_t));
-                auto raster_set = raster_.bind({triangles.get(), work_items.get(), &deltas, &first_layer, &last_layer});
-                auto columns_set = columns_.bind({&deltas, &mask, &first_layer, &last_layer});
+                auto count_set = count_.bind({triangles.get(), work_items.get(), &bucket_count, &keys});
+                auto allocate_set = allocate_.bind({&bucket_count, &bucket_start, &bucket_cursor, &keys_allocated});
+                auto fill_set = fill_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
+                auto windings_set = windings_.bind({&keys, &bucket_start, &bucket_cursor, &toggles, &first_layer, &last_layer, &overflow});
+                auto columns_set = columns_.bind({&toggles, &mask, &first_layer, &last_layer});
+                const auto items = std::uint32_t(batch_items.size() / 2);
+                const auto buckets = std::uint32_t(batch_frames) * columns;
+                const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers};
 
-                // The clears above, or the previous column pass's resets of the deltas and range
-                // markers, must land before the raster kernel adds into them.
+                sequence.fill(keys_allocated, 4, 0u);
+                // The clears, or the previous batch's resets and its last reads of the keys and
+                // cursors, must be done before this batch counts.
                 sequence.barrier();
-                sequence.dispatch(raster_, raster_set, RasterParams{0, 0, nx, ny, z_begin, slab_layers},
-                                  std::uint32_t(batch_items.size() / 2));
-                // Every crossing and range marker must be in place before the column pass reads them.
+                sequence.dispatch(count_, count_set, raster, items);
+                // Every count must be in before the buckets are allocated.
                 sequence.barrier();
-                sequence.dispatch(columns_, columns_set,
-                                  ColumnParams{0, 0, nx, ny, slab_layers, batch_frames, batch_first - word_first, 0}, columns);
-                // The next batch reuses the host-written triangle buffers: finish this one first.
+                sequence.dispatch(allocate_, allocate_set, AllocateParams{}, buckets);
+                // The fill pass appends through the cursors the allocation wrote.
+                sequence.barrier();
+                sequence.dispatch(fill_, fill_set, raster, items);
+                // Every key and final cursor must be in place before the buckets are sorted.
+                sequence.barrier();
+                sequence.dispatch(windings_, windings_set, WindingParams{0, 0, columns, slab_layers, batch_first - word_first}, buckets);
+                // Every flip and range marker must be in place before the columns run their XOR.
+                sequence.barrier();
+                sequence.dispatch(columns_, columns_set, ColumnParams{0, 0, columns}, columns);
+                // The host reads the overflow slot after the fence; the next batch reuses the
+                // host-written triangle buffers, so this one must finish first.
+                sequence.barrier_to_host();
                 sequence.submit_and_wait();
+                if (first_overflowing_slot != ~0u)
+                    throw Error(fmt::format("{}: a voxel column crosses the surface more than {} times; the Vulkan "
+                                            "voxeliser sorts at most that many per column and frame (use --backend cpu)",
+                                            input.frames[std::size_t(batch_first) + first_overflowing_slot].source,
+                                            options_.max_column_crossings));
+                batch_first += batch_frames;
             }
             if (!any_work) continue;
             // The host reads the mask right after the fence.

@@ -1,5 +1,12 @@
 #pragma once
-// The solid voxeliser on Vulkan compute (shaders/voxel_raster.comp + voxel_columns.comp).
+// The solid voxeliser on Vulkan compute. Per batch of frames (at most one 32-frame occupancy word):
+//   voxel_raster.comp    counts the surface crossings of every bucket (frame, voxel column);
+//   voxel_allocate.comp  gives each non-empty bucket a stretch of one key list;
+//   voxel_raster.comp    (fill mode) writes each crossing's layer and direction there;
+//   voxel_windings.comp  sorts each bucket and flips the frame's bit wherever its winding number
+//                        switches between zero and non-zero;
+//   voxel_columns.comp   runs an XOR up each column over the flips: the occupancy words.
+// GPU work scales with crossings and with the layers a column spans, not with frames x layers.
 #include <cstdint>
 
 #include "core/voxelise.hpp"
@@ -11,6 +18,9 @@ struct VoxeliserOptions {
     // Largest single storage buffer to use; 0 = the device's maxStorageBufferRange capped at 256 MiB.
     // Tests set it small to force slab and batch splitting.
     std::uint64_t max_buffer_bytes = 0;
+    // Most crossings one column may have in one frame (voxel_windings.comp's heap sort stays under
+    // lavapipe's loop cap); more is reported as an error naming the frame. Tests lower it.
+    std::uint32_t max_column_crossings = 1024;
 };
 
 class VulkanVoxeliser final : public Voxeliser {
@@ -26,17 +36,22 @@ public:
         int slabs = 0;
         int batches = 0;
         std::uint64_t work_items = 0;
+        std::uint64_t key_capacity = 0;   // crossing keys the largest batch may write (an upper bound)
     };
     const Plan& last_plan() const { return plan_; }
 
     static constexpr int kTile = 16;            // columns per tile side: <= 256 column tests per raster invocation
     static constexpr int kWorkgroup = 64;
-    static constexpr int kColumnLoopBudget = 32768;  // per-invocation loop iterations, half lavapipe's silent cap
+    // Layers per slab at most: voxel_columns.comp's walk stays under half lavapipe's silent loop cap.
+    static constexpr int kMaxSlabLayers = 32768;
 
 private:
     Context& context_;
     VoxeliserOptions options_;
-    Kernel raster_;
+    Kernel count_;
+    Kernel allocate_;
+    Kernel fill_;
+    Kernel windings_;
     Kernel columns_;
     Plan plan_;
 };
