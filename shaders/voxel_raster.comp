@@ -1,7 +1,7 @@
 #version 450
 // Passes 1 and 3 of the solid voxelisation. Every invocation takes one (triangle, tile of columns)
 // work item and finds the columns whose centre the triangle's xy-projection covers. A bucket is
-// one (frame slot, column): index slot * columns + column.
+// one (column, frame slot): index column * frames + slot.
 //   COUNT (mode 0): counts the crossings of every bucket, so voxel_allocate.comp can give each
 //                   bucket a contiguous stretch of the key list.
 //   FILL  (mode 1): appends the crossing key (layer << 1 | upward) to its bucket's stretch, where
@@ -35,6 +35,7 @@ layout(push_constant) uniform Params {
     int ny;
     int z_begin;     // first z layer of the slab
     int slab_layers; // z layers in the slab
+    uint frames;     // frames in the batch: buckets per column
 } params;
 
 void main() {
@@ -87,7 +88,7 @@ void main() {
             bool covered = (wa > 0 || (wa == 0 && top_left_a)) && (wb > 0 || (wb == 0 && top_left_b)) &&
                            (wc > 0 || (wc == 0 && top_left_c));
             if (covered) {
-                uint bucket = (frame_slot * uint(params.ny) + uint(y)) * uint(params.nx) + uint(x);
+                uint bucket = (uint(y) * uint(params.nx) + uint(x)) * params.frames + frame_slot;
                 if (MODE == 0) {
                     atomicAdd(bucket_counter[bucket], 1u);
                 } else {

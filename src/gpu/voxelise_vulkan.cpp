@@ -9,7 +9,6 @@
 #include "voxel_allocate.spv.h"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
-#include "voxel_windings.spv.h"
 
 namespace amhv::gpu {
 
@@ -23,16 +22,14 @@ static_assert(sizeof(GpuTriangle) == 48);
 struct RasterParams {
     std::uint32_t work_base, work_count;
     std::int32_t nx, ny, z_begin, slab_layers;
+    std::uint32_t frames;
 };
 struct AllocateParams {
-    std::uint32_t bucket_base, bucket_count;
-};
-struct WindingParams {
-    std::uint32_t bucket_base, bucket_count, columns;
-    std::int32_t slab_layers, bit_offset;
+    std::uint32_t column_base, column_count, frames;
 };
 struct ColumnParams {
-    std::uint32_t column_base, column_count, columns;
+    std::uint32_t column_base, column_count, columns, frames;
+    std::int32_t slab_layers, bit_offset;
 };
 
 // A closed frame's triangles that a vertical ray can cross, with the columns their bounding boxes
@@ -55,10 +52,9 @@ VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
       count_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 0}),
-      allocate_(context, voxel_allocate_spv, 4, sizeof(AllocateParams), {kWorkgroup}),
+      allocate_(context, voxel_allocate_spv, 6, sizeof(AllocateParams), {kWorkgroup, options.max_column_crossings}),
       fill_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 1}),
-      windings_(context, voxel_windings_spv, 7, sizeof(WindingParams), {kWorkgroup, options.max_column_crossings}),
-      columns_(context, voxel_columns_spv, 4, sizeof(ColumnParams), {kWorkgroup}) {}
+      columns_(context, voxel_columns_spv, 6, sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings}) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -99,7 +95,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     plan_ = {};
     plan_.slab_layers = int(std::min<std::uint64_t>({std::uint64_t(nz), budget / layer_bytes, std::uint64_t(kMaxSlabLayers)}));
     plan_.slabs = (nz + plan_.slab_layers - 1) / plan_.slab_layers;
-    const int frames_limit = int(std::min<std::uint64_t>(32, budget / layer_bytes));
+    // Halved when a column has more crossings in a batch than the column pass sorts.
+    int frames_limit = int(std::min<std::uint64_t>(32, budget / layer_bytes));
     // The frames of the batch starting at `first` (inside its word).
     auto batch_length = [&](int first, int word_last) {
         int length = 0;
@@ -122,23 +119,20 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::uint64_t bucket_bytes = layer_bytes * std::uint64_t(plan_.frames_per_batch);
     Buffer mask(context_, slab_bytes, Buffer::Memory::Host);
     Buffer toggles(context_, slab_bytes, Buffer::Memory::Device);
-    Buffer first_layer(context_, layer_bytes, Buffer::Memory::Device);
-    Buffer last_layer(context_, layer_bytes, Buffer::Memory::Device);
+    Buffer column_keys(context_, layer_bytes, Buffer::Memory::Device);
     Buffer bucket_count(context_, bucket_bytes, Buffer::Memory::Device);
     Buffer bucket_start(context_, bucket_bytes, Buffer::Memory::Device);
     Buffer bucket_cursor(context_, bucket_bytes, Buffer::Memory::Device);
     Buffer keys(context_, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
     Buffer keys_allocated(context_, 4, Buffer::Memory::Device);
     Buffer overflow(context_, 4, Buffer::Memory::Host);
-    std::uint32_t& first_overflowing_slot = overflow.mapped<std::uint32_t>()[0];
-    first_overflowing_slot = ~0u;
+    std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
+    most_column_crossings = 0;
     std::unique_ptr<Buffer> triangles, work_items;
     Sequence sequence(context_);
-    // Cleared once: afterwards the passes reset every counter, flip word and range marker they consume.
+    // Cleared once: afterwards the passes reset every counter and flip word they consume.
     sequence.fill(bucket_count, bucket_bytes, 0u);
     sequence.fill(toggles, slab_bytes, 0u);
-    sequence.fill(first_layer, layer_bytes, 0x7fffffffu);
-    sequence.fill(last_layer, layer_bytes, 0xffffffffu);
 
     // Host side of a batch: its triangles and one work item per (triangle, covered tile).
     std::vector<GpuTriangle> batch_triangles;
@@ -184,13 +178,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 std::memcpy(triangles->mapped<GpuTriangle>().data(), batch_triangles.data(), batch_triangles.size() * sizeof(GpuTriangle));
                 std::memcpy(work_items->mapped<std::uint32_t>().data(), batch_items.data(), batch_items.size() * sizeof(std::uint32_t));
                 auto count_set = count_.bind({triangles.get(), work_items.get(), &bucket_count, &keys});
-                auto allocate_set = allocate_.bind({&bucket_count, &bucket_start, &bucket_cursor, &keys_allocated});
+                auto allocate_set = allocate_.bind({&bucket_count, &bucket_start, &bucket_cursor, &column_keys, &keys_allocated, &overflow});
                 auto fill_set = fill_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
-                auto windings_set = windings_.bind({&keys, &bucket_start, &bucket_cursor, &toggles, &first_layer, &last_layer, &overflow});
-                auto columns_set = columns_.bind({&toggles, &mask, &first_layer, &last_layer});
+                auto columns_set = columns_.bind({&keys, &bucket_start, &bucket_cursor, &column_keys, &toggles, &mask});
                 const auto items = std::uint32_t(batch_items.size() / 2);
-                const auto buckets = std::uint32_t(batch_frames) * columns;
-                const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers};
+                const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
 
                 sequence.fill(keys_allocated, 4, 0u);
                 // The clears, or the previous batch's resets and its last reads of the keys and
@@ -199,26 +191,34 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 sequence.dispatch(count_, count_set, raster, items);
                 // Every count must be in before the buckets are allocated.
                 sequence.barrier();
-                sequence.dispatch(allocate_, allocate_set, AllocateParams{}, buckets);
+                sequence.dispatch(allocate_, allocate_set, AllocateParams{0, 0, std::uint32_t(batch_frames)}, columns);
                 // The fill pass appends through the cursors the allocation wrote.
                 sequence.barrier();
                 sequence.dispatch(fill_, fill_set, raster, items);
-                // Every key and final cursor must be in place before the buckets are sorted.
+                // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
-                sequence.dispatch(windings_, windings_set, WindingParams{0, 0, columns, slab_layers, batch_first - word_first}, buckets);
-                // Every flip and range marker must be in place before the columns run their XOR.
-                sequence.barrier();
-                sequence.dispatch(columns_, columns_set, ColumnParams{0, 0, columns}, columns);
-                // The host reads the overflow slot after the fence; the next batch reuses the
+                sequence.dispatch(columns_, columns_set,
+                                  ColumnParams{0, 0, columns, std::uint32_t(batch_frames), slab_layers, batch_first - word_first},
+                                  columns);
+                // The host reads the overflow value after the fence; the next batch reuses the
                 // host-written triangle buffers, so this one must finish first.
                 sequence.barrier_to_host();
                 sequence.submit_and_wait();
-                if (first_overflowing_slot != ~0u)
-                    throw Error(fmt::format("{}: a voxel column crosses the surface more than {} times; the Vulkan "
-                                            "voxeliser sorts at most that many per column and frame (use --backend cpu)",
-                                            input.frames[std::size_t(batch_first) + first_overflowing_slot].source,
+                if (most_column_crossings == 0) {
+                    batch_first += batch_frames;
+                    continue;
+                }
+                // A column had more crossings than the column pass may sort. It was skipped; every
+                // other column's bits are right and will be ORed again, so the batch is simply
+                // redone with fewer frames.
+                if (batch_frames == 1)
+                    throw Error(fmt::format("{}: a voxel column crosses the surface {} times, more than the {} the Vulkan "
+                                            "voxeliser sorts per column (use --backend cpu)",
+                                            input.frames[std::size_t(batch_first)].source, most_column_crossings,
                                             options_.max_column_crossings));
-                batch_first += batch_frames;
+                most_column_crossings = 0;
+                frames_limit = std::max(1, batch_frames / 2);
+                ++plan_.overflow_retries;
             }
             if (!any_work) continue;
             // The host reads the mask right after the fence.

@@ -1,11 +1,11 @@
 #pragma once
 // The solid voxeliser on Vulkan compute. Per batch of frames (at most one 32-frame occupancy word):
-//   voxel_raster.comp    counts the surface crossings of every bucket (frame, voxel column);
-//   voxel_allocate.comp  gives each non-empty bucket a stretch of one key list;
+//   voxel_raster.comp    counts the surface crossings of every bucket (voxel column, frame);
+//   voxel_allocate.comp  gives each column's buckets consecutive stretches of one key list;
 //   voxel_raster.comp    (fill mode) writes each crossing's layer and direction there;
-//   voxel_windings.comp  sorts each bucket and flips the frame's bit wherever its winding number
-//                        switches between zero and non-zero;
-//   voxel_columns.comp   runs an XOR up each column over the flips: the occupancy words.
+//   voxel_columns.comp   per column: sorts each bucket, flips the frame's bit wherever its winding
+//                        number switches between zero and non-zero, and runs an XOR up the column
+//                        over the flips: the occupancy words.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
 #include <cstdint>
 
@@ -18,8 +18,9 @@ struct VoxeliserOptions {
     // Largest single storage buffer to use; 0 = the device's maxStorageBufferRange capped at 256 MiB.
     // Tests set it small to force slab and batch splitting.
     std::uint64_t max_buffer_bytes = 0;
-    // Most crossings one column may have in one frame (voxel_windings.comp's heap sort stays under
-    // lavapipe's loop cap); more is reported as an error naming the frame. Tests lower it.
+    // Most crossings one column may have in one batch (voxel_columns.comp's sorts stay under
+    // lavapipe's loop cap); a batch with more is redone with fewer frames, and a single frame with
+    // more is an error naming it. Tests lower it.
     std::uint32_t max_column_crossings = 1024;
 };
 
@@ -35,6 +36,7 @@ public:
         int slab_layers = 0;
         int slabs = 0;
         int batches = 0;
+        int overflow_retries = 0;         // batches redone with fewer frames: a column had too many crossings
         std::uint64_t work_items = 0;
         std::uint64_t key_capacity = 0;   // crossing keys the largest batch may write (an upper bound)
     };
@@ -42,8 +44,9 @@ public:
 
     static constexpr int kTile = 16;            // columns per tile side: <= 256 column tests per raster invocation
     static constexpr int kWorkgroup = 64;
-    // Layers per slab at most: voxel_columns.comp's walk stays under half lavapipe's silent loop cap.
-    static constexpr int kMaxSlabLayers = 32768;
+    // Layers per slab at most: with its sorts (about 12k iterations for 1024 crossings)
+    // voxel_columns.comp stays under half lavapipe's silent loop cap of about 65k.
+    static constexpr int kMaxSlabLayers = 16384;
 
 private:
     Context& context_;
@@ -51,7 +54,6 @@ private:
     Kernel count_;
     Kernel allocate_;
     Kernel fill_;
-    Kernel windings_;
     Kernel columns_;
     Plan plan_;
 };
