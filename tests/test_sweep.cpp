@@ -292,6 +292,45 @@ TEST(Sweep, MapChunksCoverManyRunsPerSlice) {
 }
 
 // Pooling over a block of offsets: every column of the result is the OR of the block's columns.
+// The view cone is cut per column analytically; it must hold exactly the voxels whose centres a
+// plain test puts inside, for cones looking level, up, down and straight down, narrow and at the
+// full 90 degrees, with and without a range, with the eye inside and outside the region.
+TEST(Sweep, ViewConeVolumeIsEveryCentreInsideTheCone) {
+    std::mt19937 random(77);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const double h = 0.02;
+    Box3 region;
+    region.min = Vec3(-1.0, -0.8, 0.0);
+    region.max = Vec3(1.2, 0.9, 1.9);
+    std::vector<ViewCone> cones{
+        {Vec3(0.0, 0.0, 1.6), Vec3(1, 0, 0), 30, 0},         {Vec3(0.0, 0.0, 1.6), Vec3(0, 0, -1), 25, 0},
+        {Vec3(0.0, 0.0, 1.6), Vec3(0, 0, 1), 90, 0},          {Vec3(-1.5, 0.2, 1.0), Vec3(1, 0.1, -0.3).normalized(), 10, 2.0},
+        {Vec3(0.3, -0.2, 0.9), Vec3(0, 1, 0), 60, 0.7},      {Vec3(0.0, 0.0, 1.6), Vec3(1, 0, -1).normalized(), 45, 0}};
+    for (int i = 0; i < 20; ++i)
+        cones.push_back({Vec3(1.5 * u(random), 1.5 * u(random), 1.0 + u(random)), Vec3(u(random), u(random), u(random)).normalized(),
+                         5 + 42.5 * (1 + u(random)), i % 2 ? 0.0 : 0.5 + 1.5 * (1 + u(random))});
+    for (std::size_t k = 0; k < cones.size(); ++k) {
+        const ViewCone& cone = cones[k];
+        Amhv volume = view_cone_volume(cone, region, h);
+        const VoxelGrid& g = volume.grid();
+        const double cos_half = std::cos(cone.half_angle_deg * std::numbers::pi / 180.0);
+        std::size_t differing = 0, inside = 0;
+        for (int z = 0; z < g.dims[2]; ++z)
+            for (int y = 0; y < g.dims[1]; ++y)
+                for (int x = 0; x < g.dims[0]; ++x) {
+                    Vec3 d = g.centre(x, y, z) - cone.eye;
+                    double along = d.dot(cone.gaze), length = d.norm();
+                    bool expected = length > 0 && along >= cos_half * length && (cone.range <= 0 || length <= cone.range);
+                    inside += expected;
+                    differing += volume.any(g.index(x, y, z)) != expected;
+                }
+        EXPECT_EQ(differing, 0u) << "cone " << k;
+        if (k < 6) {
+            EXPECT_GT(inside, 1000u) << "cone " << k;
+        }
+    }
+}
+
 TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
     std::mt19937 random(7);
     ColumnVolume volume;

@@ -1,7 +1,5 @@
 #include "core/amhv.hpp"
 
-#include <bit>
-
 #include "core/error.hpp"
 
 namespace amhv {
@@ -9,30 +7,6 @@ namespace amhv {
 Amhv::Amhv(VoxelGrid grid, int frames) : grid_(grid), frames_(frames), words_((frames + 31) / 32) {
     if (frames <= 0) throw Error(fmt::format("an aMHV needs at least one frame, got {}", frames));
     mask_.assign(std::size_t(words_) * grid_.voxel_count(), 0u);
-}
-
-int Amhv::t_start(std::size_t voxel) const {
-    for (int w = 0; w < words_; ++w)
-        if (auto bits = word(w, voxel)) return w * 32 + std::countr_zero(bits);
-    return -1;
-}
-
-int Amhv::t_end(std::size_t voxel) const {
-    for (int w = words_ - 1; w >= 0; --w)
-        if (auto bits = word(w, voxel)) return w * 32 + 31 - std::countl_zero(bits);
-    return -1;
-}
-
-int Amhv::frame_count(std::size_t voxel) const {
-    int count = 0;
-    for (int w = 0; w < words_; ++w) count += std::popcount(word(w, voxel));
-    return count;
-}
-
-bool Amhv::any(std::size_t voxel) const {
-    for (int w = 0; w < words_; ++w)
-        if (word(w, voxel)) return true;
-    return false;
 }
 
 bool Amhv::has_gap(std::size_t voxel) const {

@@ -1,6 +1,7 @@
 #pragma once
 // The augmented Motion History Volume of one object over one segment (METHOD.md section 3):
 // per voxel, the full occupancy mask over the segment's frames.
+#include <bit>
 #include <cstdint>
 #include <vector>
 
@@ -27,11 +28,28 @@ public:
     void set(std::size_t voxel, int frame) { mask_[std::size_t(frame / 32) * voxel_count() + voxel] |= 1u << (frame % 32); }
     const std::vector<std::uint32_t>& mask() const { return mask_; }
 
-    // Derived per-voxel quantities; t_start/t_end are -1 for an empty voxel.
-    int t_start(std::size_t voxel) const;
-    int t_end(std::size_t voxel) const;
-    int frame_count(std::size_t voxel) const;
-    bool any(std::size_t voxel) const;
+    // Derived per-voxel quantities; t_start/t_end are -1 for an empty voxel. Inline: the sweep's
+    // host stages call them for every voxel of large volumes.
+    int t_start(std::size_t voxel) const {
+        for (int w = 0; w < words_; ++w)
+            if (auto bits = word(w, voxel)) return w * 32 + std::countr_zero(bits);
+        return -1;
+    }
+    int t_end(std::size_t voxel) const {
+        for (int w = words_ - 1; w >= 0; --w)
+            if (auto bits = word(w, voxel)) return w * 32 + 31 - std::countl_zero(bits);
+        return -1;
+    }
+    int frame_count(std::size_t voxel) const {
+        int count = 0;
+        for (int w = 0; w < words_; ++w) count += std::popcount(word(w, voxel));
+        return count;
+    }
+    bool any(std::size_t voxel) const {
+        for (int w = 0; w < words_; ++w)
+            if (word(w, voxel)) return true;
+        return false;
+    }
     // True when the voxel's occupied frames are not one interval.
     bool has_gap(std::size_t voxel) const;
     // Surface label (paper Fig. 4): +1 on the ending surface (t_end = T_end), -1 on the starting

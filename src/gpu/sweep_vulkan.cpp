@@ -1,6 +1,7 @@
 #include "gpu/sweep_vulkan.hpp"
 
 #include <algorithm>
+#include <exception>
 #include <chrono>
 #include <cstring>
 #include <limits>
@@ -435,17 +436,35 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     using Rows = std::vector<std::array<std::int32_t, 2>>;
     std::unique_ptr<Buffer> pulled, map_words, row_ranges;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows) {
-        std::vector<SliceRun> runs;
-        int longest = 0;
+        // The host cuts each angle's runs on all cores while the device waits: keys grow with the
+        // angle, so sorting each angle's runs and joining them in angle order sorts the batch.
+        // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
+        // loads across a subgroup.
+        std::vector<std::vector<SliceRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
+        std::vector<int> longest_per_angle(static_cast<std::size_t>(batch_angles), 0);
+        std::exception_ptr failure;  // an exception must not leave the parallel loop: kept, rethrown after it
+#pragma omp parallel for schedule(dynamic)
         for (int a = 0; a < batch_angles; ++a) {
             const auto& r = rows[std::size_t(a)];
             if (r[0] > r[1]) continue;
-            const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + r[0], range.j_first + r[1]);
-            longest = std::max(longest, append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, runs));
+            try {
+                const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + r[0], range.j_first + r[1]);
+                auto& angle_runs = angle_runs_of[std::size_t(a)];
+                longest_per_angle[std::size_t(a)] =
+                    append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, angle_runs);
+                std::stable_sort(angle_runs.begin(), angle_runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
+            } catch (...) {
+#pragma omp critical(amhv_pulled_runs_failure)
+                if (!failure) failure = std::current_exception();
+            }
         }
-        // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
-        // loads across a subgroup.
-        std::stable_sort(runs.begin(), runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
+        if (failure) std::rethrow_exception(failure);
+        std::vector<SliceRun> runs;
+        std::size_t total_runs = 0;
+        for (const auto& angle_runs : angle_runs_of) total_runs += angle_runs.size();
+        runs.reserve(total_runs);
+        for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
+        const int longest = *std::max_element(longest_per_angle.begin(), longest_per_angle.end());
         stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
         stats_.run_pairs_per_stage[std::size_t(stage)] += test.pairs(runs);
         const int maps = test.maps_per_angle();

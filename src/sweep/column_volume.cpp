@@ -1,6 +1,7 @@
 #include "sweep/column_volume.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -24,19 +25,22 @@ ColumnVolume empty_like(const Amhv& volume, const ZFrame& z, int slots) {
     return c;
 }
 
-// Calls set(column words, bit word, bit mask, voxel index) for every voxel of the grid.
+// Calls visit(column words, bit word, bit mask, voxel index) for every occupied voxel of the grid,
+// in memory order of the volume (z, then y, then x), so the volume is read contiguously.
 template <typename Visit>
-void for_each_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& c, Visit visit) {
+void for_each_occupied_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& c, Visit visit) {
     const VoxelGrid& g = volume.grid();
     const std::int64_t z0 = g.lattice_origin()[2] - z.z_first;
-    for (int y = 0; y < g.dims[1]; ++y)
-        for (int x = 0; x < g.dims[0]; ++x) {
-            std::uint32_t* column = c.column(x, y);
-            for (int vz = 0; vz < g.dims[2]; ++vz) {
-                const std::int64_t bit = z0 + vz;
-                visit(column, int(bit / 32), 1u << (bit % 32), g.index(x, y, vz));
-            }
+    for (int vz = 0; vz < g.dims[2]; ++vz) {
+        const std::int64_t bit = z0 + vz;
+        const int word = int(bit / 32);
+        const std::uint32_t mask = 1u << (bit % 32);
+        for (int y = 0; y < g.dims[1]; ++y) {
+            const std::size_t row = g.index(0, y, vz);
+            for (int x = 0; x < g.dims[0]; ++x)
+                if (volume.any(row + std::size_t(x))) visit(c.column(x, y), word, mask, row + std::size_t(x));
         }
+    }
 }
 
 }  // namespace
@@ -93,12 +97,14 @@ ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
     const int frames = volume.frames();
     ColumnVolume c = empty_like(volume, z, with_frames ? frames + 1 : 1);
     const std::size_t slot_words = std::size_t(z.words);
-    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
-        if (!volume.any(v)) return;
+    for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
         column[word] |= bit;
         if (!with_frames) return;
-        for (int t = 0; t < frames; ++t)
-            if (volume.occupied(v, t)) column[(1 + std::size_t(t)) * slot_words + word] |= bit;
+        for (int w = 0; w < volume.words(); ++w)
+            for (std::uint32_t frames_set = volume.word(w, v); frames_set; frames_set &= frames_set - 1) {
+                const int t = w * 32 + std::countr_zero(frames_set);
+                column[(1 + std::size_t(t)) * slot_words + word] |= bit;
+            }
     });
     c.finish();
     return c;
@@ -106,8 +112,8 @@ ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
 
 ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep) {
     ColumnVolume c = empty_like(volume, z, 1);
-    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
-        if (volume.any(v) && keep(v)) column[word] |= bit;
+    for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
+        if (keep(v)) column[word] |= bit;
     });
     c.finish();
     return c;
@@ -117,8 +123,7 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
     const int frames = volume.frames();
     ColumnVolume c = empty_like(volume, z, frames + 1);
     const std::size_t slot_words = std::size_t(z.words);
-    for_each_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
-        if (!volume.any(v)) return;
+    for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
         column[word] |= bit;
         const int first = started_by ? volume.t_start(v) : 0;
         const int last = started_by ? frames - 1 : volume.t_end(v);
