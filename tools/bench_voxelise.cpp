@@ -57,6 +57,7 @@ void B1_voxelise_vulkan(benchmark::State& state) {
 void B1_voxelise_cpu_reference(benchmark::State& state) {
     auto input = prepare_voxelisation(human_sequence(), double(state.range(0)) / 1000.0);
     ReferenceVoxeliser voxeliser;
+    voxelise(input, voxeliser);  // warm-up, untimed: the first run pays one-off costs (lavapipe's first dispatch, page faults)
     for (auto _ : state) {
         Amhv volume = voxelise(input, voxeliser);
         benchmark::DoNotOptimize(volume.mask().data());
