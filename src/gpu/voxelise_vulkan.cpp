@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstring>
 #include <memory>
-#include <optional>
 
 #include "core/error.hpp"
 #include "voxel_allocate.spv.h"
@@ -97,12 +96,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     plan_.slabs = (nz + plan_.slab_layers - 1) / plan_.slab_layers;
     // Halved when a column has more crossings in a batch than the column pass sorts.
     int frames_limit = int(std::min<std::uint64_t>(32, budget / layer_bytes));
+    // Keys one batch may have: one buffer while planning, then the key buffer allocated for the
+    // plan (which holds every single frame), so a batch redone with fewer frames also fits.
+    std::uint64_t key_room = key_limit;
     // The frames of the batch starting at `first` (inside its word).
     auto batch_length = [&](int first, int word_last) {
         int length = 0;
         std::uint64_t keys = 0;
         while (first + length < word_last && length < frames_limit &&
-               (length == 0 || keys + frame_keys[std::size_t(first + length)] <= key_limit))
+               (length == 0 || keys + frame_keys[std::size_t(first + length)] <= key_room))
             keys += frame_keys[std::size_t(first + length++)];
         return length;
     };
@@ -114,6 +116,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         plan_.frames_per_batch = std::max(plan_.frames_per_batch, length);
         first += length;
     }
+    key_room = plan_.key_capacity;
 
     const std::uint64_t slab_bytes = layer_bytes * std::uint64_t(plan_.slab_layers);
     const std::uint64_t bucket_bytes = layer_bytes * std::uint64_t(plan_.frames_per_batch);
