@@ -8,10 +8,16 @@
 #include <OpenEXR/ImfThreading.h>
 #include <png.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <fstream>
+#include <iterator>
 #include <memory>
+
+#include <fmt/format.h>
 
 #include "core/error.hpp"
 
@@ -52,13 +58,66 @@ std::array<std::uint8_t, 3> outcome_colour(PoseOutcome outcome) {
 }
 
 void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions) {
-    std::ofstream out(path);
+    std::ofstream out(path, std::ios::binary);
     if (!out) fail(path.string(), "cannot create the file");
     out << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n";
-    for (const Solution& s : solutions)
-        out << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
+    // Groups of millions of solutions: chunks are formatted on all cores, then written in order.
+    constexpr std::size_t kChunk = 1 << 16;
+    const std::size_t chunks = (solutions.size() + kChunk - 1) / kChunk;
+    constexpr std::size_t kInFlight = 16;  // chunks formatted at once: bounded memory
+    std::vector<fmt::memory_buffer> text(kInFlight);
+    for (std::size_t first = 0; first < chunks; first += kInFlight) {
+        const std::size_t count = std::min(kInFlight, chunks - first);
+#pragma omp parallel for schedule(dynamic)
+        for (std::size_t c = 0; c < count; ++c) {  // formatting into memory cannot throw but for bad_alloc
+            auto& buffer = text[c];
+            buffer.clear();
+            const std::size_t begin = (first + c) * kChunk, end = std::min(solutions.size(), begin + kChunk);
+            for (std::size_t i = begin; i < end; ++i) {
+                const Solution& s = solutions[i];
+                fmt::format_to(std::back_inserter(buffer), "{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg,
+                               s.distance, s.theta_a_deg, s.theta_b_deg);
+            }
+        }
+        for (std::size_t c = 0; c < count; ++c) out.write(text[c].data(), std::streamsize(text[c].size()));
+    }
     if (!out) fail(path.string(), "write failed");
 }
+
+namespace {
+
+// The feasibility EXR of angle k: R, G, B (the outcome colours, linear) and `passed`.
+void write_feasibility_exr(const std::filesystem::path& folder, const SweepProblem& problem, const SweepResult& result, int k,
+                           std::vector<float>& planes, const std::array<std::array<float, 3>, 5>& linear) {
+    const PoseRange& r = result.range;
+    const int width = r.width(), height = r.height();
+    for (int row = 0; row < height; ++row)
+        for (int col = 0; col < width; ++col) {
+            PoseOutcome outcome = result.at(r.i_first + col, r.j_last - row, k);  // top row = largest y
+            std::size_t pixel = std::size_t(row) * width + col;
+            for (int c = 0; c < 3; ++c) planes[std::size_t(c) * width * height + pixel] = linear[std::size_t(outcome)][std::size_t(c)];
+            planes[std::size_t(3) * width * height + pixel] = float(int(outcome));
+        }
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    const char* channels[] = {"R", "G", "B", "passed"};
+    for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    auto put = [&](const char* key, const std::string& value) { header.insert(key, Imf::StringAttribute(value)); };
+    put("amhv:theta_deg", fmt::format("{}", describe(problem, 0, 0, k).theta_deg));
+    put("amhv:x_m", fmt::format("column c is x = {} + c * {} m (offset of B's root from A's root)", r.i_first * problem.voxel, problem.voxel));
+    put("amhv:y_m", fmt::format("row 0 is y = {} m, each row down {} m less", r.j_last * problem.voxel, problem.voxel));
+    put("amhv:passed", "constraints passed in order contact, dictionary, fidelity, visibility; 4 = solution");
+    Imf::FrameBuffer buffer;
+    for (int c = 0; c < 4; ++c)
+        buffer.insert(channels[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.data() + std::size_t(c) * width * height),
+                                              sizeof(float), sizeof(float) * std::size_t(width)));
+    auto path = folder / fmt::format("angle_{:03d}.exr", k);
+    Imf::OutputFile file(path.c_str(), header);
+    file.setFrameBuffer(buffer);
+    file.writePixels(height);
+}
+
+}  // namespace
 
 int write_feasibility_maps(const std::filesystem::path& folder, const SweepProblem& problem, const SweepResult& result) {
     Imf::setGlobalThreadCount(0);  // byte-identical files
@@ -66,36 +125,29 @@ int write_feasibility_maps(const std::filesystem::path& folder, const SweepProbl
     const PoseRange& r = result.range;
     const int width = r.width(), height = r.height();
     if (width <= 0 || height <= 0) return 0;
-    int files = 0;
-    std::vector<float> planes(std::size_t(4) * width * height);
-    for (int k = 0; k < r.angles; ++k) {
-        for (int row = 0; row < height; ++row)
-            for (int col = 0; col < width; ++col) {
-                PoseOutcome outcome = result.at(r.i_first + col, r.j_last - row, k);  // top row = largest y
-                auto rgb = outcome_colour(outcome);
-                std::size_t pixel = std::size_t(row) * width + col;
-                for (int c = 0; c < 3; ++c) planes[std::size_t(c) * width * height + pixel] = std::pow(rgb[std::size_t(c)] / 255.0f, 2.2f);
-                planes[std::size_t(3) * width * height + pixel] = float(int(outcome));
-            }
-        Imf::Header header(width, height);
-        header.compression() = Imf::ZIP_COMPRESSION;
-        const char* channels[] = {"R", "G", "B", "passed"};
-        for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
-        auto put = [&](const char* key, const std::string& value) { header.insert(key, Imf::StringAttribute(value)); };
-        put("amhv:theta_deg", fmt::format("{}", describe(problem, 0, 0, k).theta_deg));
-        put("amhv:x_m", fmt::format("column c is x = {} + c * {} m (offset of B's root from A's root)", r.i_first * problem.voxel, problem.voxel));
-        put("amhv:y_m", fmt::format("row 0 is y = {} m, each row down {} m less", r.j_last * problem.voxel, problem.voxel));
-        put("amhv:passed", "constraints passed in order contact, dictionary, fidelity, visibility; 4 = solution");
-        Imf::FrameBuffer buffer;
-        for (int c = 0; c < 4; ++c)
-            buffer.insert(channels[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.data() + std::size_t(c) * width * height),
-                                                  sizeof(float), sizeof(float) * std::size_t(width)));
-        auto path = folder / fmt::format("angle_{:03d}.exr", k);
-        Imf::OutputFile file(path.c_str(), header);
-        file.setFrameBuffer(buffer);
-        file.writePixels(height);
-        ++files;
+    // Linear values of the five outcome colours, once.
+    std::array<std::array<float, 3>, 5> linear{};
+    for (int o = 0; o < 5; ++o) {
+        auto rgb = outcome_colour(PoseOutcome(o));
+        for (int c = 0; c < 3; ++c) linear[std::size_t(o)][std::size_t(c)] = std::pow(rgb[std::size_t(c)] / 255.0f, 2.2f);
     }
+    // One file per angle, written on all cores (each file alone is byte-identical to a serial write).
+    std::exception_ptr failure;
+#pragma omp parallel
+    {
+        std::vector<float> planes(std::size_t(4) * width * height);
+#pragma omp for schedule(dynamic)
+        for (int k = 0; k < r.angles; ++k) {
+            try {
+                write_feasibility_exr(folder, problem, result, k, planes, linear);
+            } catch (...) {
+#pragma omp critical(amhv_feasibility_failure)
+                if (!failure) failure = std::current_exception();
+            }
+        }
+    }
+    if (failure) std::rethrow_exception(failure);
+    const int files = r.angles;
     // Montage: angles tiled in rows, each tile at most 160 px (nearest sampling), 2 px gaps.
     const int scale_down = std::max(1, (std::max(width, height) + 159) / 160);
     const int tile_w = (width + scale_down - 1) / scale_down, tile_h = (height + scale_down - 1) / scale_down;
