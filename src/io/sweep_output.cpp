@@ -10,11 +10,11 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <fstream>
-#include <iterator>
 #include <memory>
 
 #include <fmt/format.h>
@@ -65,18 +65,26 @@ void write_solutions_csv(const std::filesystem::path& path, const std::vector<So
     constexpr std::size_t kChunk = 1 << 16;
     const std::size_t chunks = (solutions.size() + kChunk - 1) / kChunk;
     constexpr std::size_t kInFlight = 16;  // chunks formatted at once: bounded memory
-    std::vector<fmt::memory_buffer> text(kInFlight);
+    std::vector<std::string> text(kInFlight);
     for (std::size_t first = 0; first < chunks; first += kInFlight) {
         const std::size_t count = std::min(kInFlight, chunks - first);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t c = 0; c < count; ++c) {  // formatting into memory cannot throw but for bad_alloc
             auto& buffer = text[c];
-            buffer.clear();
             const std::size_t begin = (first + c) * kChunk, end = std::min(solutions.size(), begin + kChunk);
+            buffer.clear();
+            // std::to_chars prints the correctly rounded "%.6f", like fmt, several times faster.
+            constexpr int kRoom = 330;  // the longest fixed-point double with 6 decimals, and a separator
+            char line[6 * kRoom];
             for (std::size_t i = begin; i < end; ++i) {
                 const Solution& s = solutions[i];
-                fmt::format_to(std::back_inserter(buffer), "{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg,
-                               s.distance, s.theta_a_deg, s.theta_b_deg);
+                const double values[] = {s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg};
+                char* at = line;
+                for (int v = 0; v < 6; ++v) {
+                    at = std::to_chars(at, at + kRoom - 1, values[v], std::chars_format::fixed, 6).ptr;
+                    *at++ = v < 5 ? ',' : '\n';
+                }
+                buffer.append(line, std::size_t(at - line));
             }
         }
         for (std::size_t c = 0; c < count; ++c) out.write(text[c].data(), std::streamsize(text[c].size()));
