@@ -18,8 +18,10 @@ bool is_top_left(ivec2 a, ivec2 b) {
     return dy < 0 || (dy == 0 && dx < 0);
 }
 
-bool covers(int64_t w, ivec2 a, ivec2 b) {
-    return w > 0 || (w == 0 && is_top_left(a, b));
+// fixed_raster.hpp's covers(w, a, b), with is_top_left(a, b) passed in: the raster decides it once
+// per triangle edge rather than once per column.
+bool covers(int64_t w, bool top_left) {
+    return w > 0 || (w == 0 && top_left);
 }
 
 int64_t floor_div(int64_t n, int64_t d) {  // d > 0

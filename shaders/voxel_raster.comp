@@ -85,9 +85,7 @@ void main() {
     for (int y = y_first; y <= y_last; ++y) {
         int64_t wa = row_wa, wb = row_wb, wc = row_wc, numerator = row_numerator;
         for (int x = x_first; x <= x_last; ++x) {
-            bool covered = (wa > 0 || (wa == 0 && top_left_a)) && (wb > 0 || (wb == 0 && top_left_b)) &&
-                           (wc > 0 || (wc == 0 && top_left_c));
-            if (covered) {
+            if (covers(wa, top_left_a) && covers(wb, top_left_b) && covers(wc, top_left_c)) {
                 uint bucket = (uint(y) * uint(params.nx) + uint(x)) * params.frames + frame_slot;
                 if (MODE == 0) {
                     atomicAdd(bucket_counter[bucket], 1u);

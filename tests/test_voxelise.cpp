@@ -145,6 +145,27 @@ TEST(Voxelise, SplittingAndLargeTrianglesMatchReference) {
     }
 }
 
+// Ten stacked slabs cross their shared columns 20 times per frame: more than the insertion sort
+// takes, so the column kernel's heap sort orders every bucket. 40 frames fill a whole word and
+// spill into a second one; the slabs thicken frame by frame so no two frames agree.
+TEST(Voxelise, ManyCrossingsPerColumnSortAndMatchReference) {
+    std::vector<TriangleMesh> frames;
+    for (int f = 0; f < 40; ++f) {
+        TriangleMesh stack;
+        for (int k = 0; k < 10; ++k)
+            stack.append(shapes::box({0.0, 0.0, 0.06 * k}, {0.3, 0.25, 0.06 * k + 0.02 + 0.0005 * f}));
+        frames.push_back(stack);
+    }
+    auto both = voxelise_both(prepare_voxelisation(sequence_of(frames), 0.005));
+    expect_identical(both);
+    EXPECT_EQ(both.plan.overflow_retries, 0);
+    // A column away from the edges: ten slabs, each 4 layers thick in frame 0.
+    auto grid = both.gpu.grid();
+    int cx = int((0.15 - grid.origin.x()) / 0.005), cy = int((0.12 - grid.origin.y()) / 0.005), layers = 0;
+    for (int z = 0; z < grid.dims[2]; ++z) layers += both.gpu.occupied(grid.index(cx, cy, z), 0);
+    EXPECT_EQ(layers, 40);
+}
+
 // A batch whose column has more crossings than the column kernel sorts is redone with fewer
 // frames; a single frame with too many is an error that names it, never a silently wrong volume.
 // Frame 0 (one box) crosses a column twice, frame 1 (two stacked boxes) four times: a limit of 4

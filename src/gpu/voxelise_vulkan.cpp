@@ -99,22 +99,23 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // Keys one batch may have: one buffer while planning, then the key buffer allocated for the
     // plan (which holds every single frame), so a batch redone with fewer frames also fits.
     std::uint64_t key_room = key_limit;
-    // The frames of the batch starting at `first` (inside its word).
-    auto batch_length = [&](int first, int word_last) {
-        int length = 0;
+    // The batch starting at `first` (inside its word): its frames and their keys.
+    struct Batch {
+        int frames = 0;
         std::uint64_t keys = 0;
-        while (first + length < word_last && length < frames_limit &&
-               (length == 0 || keys + frame_keys[std::size_t(first + length)] <= key_room))
-            keys += frame_keys[std::size_t(first + length++)];
-        return length;
+    };
+    auto batch_at = [&](int first, int word_last) {
+        Batch batch;
+        while (first + batch.frames < word_last && batch.frames < frames_limit &&
+               (batch.frames == 0 || batch.keys + frame_keys[std::size_t(first + batch.frames)] <= key_room))
+            batch.keys += frame_keys[std::size_t(first + batch.frames++)];
+        return batch;
     };
     for (int first = 0; first < frames;) {
-        int length = batch_length(first, std::min(frames, (first / 32 + 1) * 32));
-        std::uint64_t keys = 0;
-        for (int f = first; f < first + length; ++f) keys += frame_keys[std::size_t(f)];
-        plan_.key_capacity = std::max(plan_.key_capacity, keys);
-        plan_.frames_per_batch = std::max(plan_.frames_per_batch, length);
-        first += length;
+        const Batch batch = batch_at(first, std::min(frames, (first / 32 + 1) * 32));
+        plan_.key_capacity = std::max(plan_.key_capacity, batch.keys);
+        plan_.frames_per_batch = std::max(plan_.frames_per_batch, batch.frames);
+        first += batch.frames;
     }
     key_room = plan_.key_capacity;
 
@@ -167,7 +168,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             sequence.fill(mask, layer_bytes * slab_layers, 0u);
             bool any_work = false;
             for (int batch_first = word_first; batch_first < word_last;) {
-                const int batch_frames = batch_length(batch_first, word_last);
+                const int batch_frames = batch_at(batch_first, word_last).frames;
                 gather(batch_first, batch_frames);
                 ++plan_.batches;
                 plan_.work_items += batch_items.size() / 2;

@@ -97,12 +97,14 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
     Amhv out(grid, 1);
     const Vec3 axis = cone.gaze.normalized();
     const double cos_half = std::cos(cone.half_angle_deg * std::numbers::pi / 180.0);
+    // A point at `length` from the eye, `along` of it along the gaze, is in the cone.
+    auto accepts = [&](double along, double length) {
+        return length > 0 && along >= cos_half * length && (cone.range <= 0 || length <= cone.range);
+    };
     // A voxel is in the cone when its centre is: the one predicate every voxel decision uses.
     auto inside = [&](int x, int y, int z) {
         Vec3 d = grid.centre(x, y, z) - cone.eye;
-        double along = d.dot(axis), length = d.norm();
-        if (length == 0 || along < cos_half * length) return false;
-        return cone.range <= 0 || length <= cone.range;
+        return accepts(d.dot(axis), d.norm());
     };
     // The cone (half angle <= 90 degrees) and the range ball are convex, so each vertical column
     // meets them in one interval of heights t = z - eye.z. Its ends are roots of
@@ -112,14 +114,14 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
     // column's interval instead of every voxel of the region (often 50 M at 1 cm).
     const double h = grid.voxel, c2 = cos_half * cos_half;
     const double z_low = grid.origin.z() + 0.5 * h - cone.eye.z(), z_high = z_low + (grid.dims[2] - 1) * h;
-    std::uint32_t* bits = out.plane(0);
-    const std::size_t layer = std::size_t(grid.dims[0]) * grid.dims[1];
+    std::vector<double> cuts;  // reused by every column: at most 7 cuts
+    cuts.reserve(7);
     for (int y = 0; y < grid.dims[1]; ++y)
         for (int x = 0; x < grid.dims[0]; ++x) {
             const Vec3 base = grid.centre(x, y, 0) - cone.eye;
             const double r2 = base.x() * base.x() + base.y() * base.y();
             const double p = base.x() * axis.x() + base.y() * axis.y(), az = axis.z();
-            std::vector<double> cuts{z_low, z_high};
+            cuts.assign({z_low, z_high});  // the column's ends, then the roots below
             auto add_roots = [&](double qa, double qb, double qc) {  // qa t^2 + qb t + qc = 0
                 if (std::abs(qa) < 1e-12) {
                     if (qb != 0) cuts.push_back(-qc / qb);
@@ -135,14 +137,11 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
             if (az != 0) cuts.push_back(-p / az);  // where `along` changes sign
             if (cone.range > 0) add_roots(1, 0, r2 - cone.range * cone.range);
             std::sort(cuts.begin(), cuts.end());
-            auto in_continuous = [&](double t) {
-                double along = p + az * t, length = std::sqrt(r2 + t * t);
-                return length > 0 && along >= cos_half * length && (cone.range <= 0 || length <= cone.range);
-            };
             double t_first = 1, t_last = 0;  // the union of the inside pieces (one interval)
             for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
                 double a = std::max(cuts[i], z_low), b = std::min(cuts[i + 1], z_high);
-                if (a > b || !in_continuous(0.5 * (a + b))) continue;
+                const double t = 0.5 * (a + b);
+                if (a > b || !accepts(p + az * t, std::sqrt(r2 + t * t))) continue;
                 if (t_first > t_last) t_first = a;
                 t_last = b;
             }
@@ -155,7 +154,7 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
             while (last + 1 < grid.dims[2] && inside(x, y, last + 1)) ++last;
             while (first <= last && !inside(x, y, first)) ++first;
             while (last >= first && !inside(x, y, last)) --last;
-            for (int z = first; z <= last; ++z) bits[std::size_t(z) * layer + std::size_t(y) * grid.dims[0] + x] = 1u;
+            for (int z = first; z <= last; ++z) out.set(grid.index(x, y, z), 0);
         }
     return out;
 }
