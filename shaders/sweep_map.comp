@@ -68,12 +68,14 @@ void main() {
         int hi = min(a_x_last - b.x_first - params.range_i0, params.range_ni - 1);
         if (lo > hi) continue;
         uint row = map_base + uint(j) * uint(params.row_words);
-        for (int w = lo >> 5; w <= hi >> 5; ++w) {
-            uint mask = 0xffffffffu;
-            if (w == (lo >> 5)) mask &= 0xffffffffu << uint(lo & 31);
-            if (w == (hi >> 5)) mask &= 0xffffffffu >> uint(31 - (hi & 31));
-            // Most intervals land where other pairs already set the bits: a plain read skips the atomic.
-            if ((maps[row + uint(w)] & mask) != mask) atomicOr(maps[row + uint(w)], mask);
-        }
+        // Most intervals land where other pairs already set the bits: a plain read skips the atomic.
+        // Straight-line code for the first and last word (most intervals span one or two).
+        uint w_lo = row + uint(lo >> 5), w_hi = row + uint(hi >> 5);
+        uint lo_mask = 0xffffffffu << uint(lo & 31), hi_mask = 0xffffffffu >> uint(31 - (hi & 31));
+        if (w_lo == w_hi) lo_mask &= hi_mask;
+        if ((maps[w_lo] & lo_mask) != lo_mask) atomicOr(maps[w_lo], lo_mask);
+        for (uint w = w_lo + 1u; w < w_hi; ++w)
+            if (maps[w] != 0xffffffffu) atomicOr(maps[w], 0xffffffffu);
+        if (w_hi != w_lo && (maps[w_hi] & hi_mask) != hi_mask) atomicOr(maps[w_hi], hi_mask);
     }
 }

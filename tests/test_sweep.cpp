@@ -364,6 +364,75 @@ TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
     }
 }
 
+// Pulled runs are cut from whole words of a sparse copy of the moving volume, mapping each A column
+// once for all slots by stepping the pull mapping along the row. They must be exactly the maximal
+// runs of the pulled voxels, found here voxel by voxel with source_column, in (key, y, x) order.
+TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
+    std::mt19937 random(11);
+    ColumnVolume volume;
+    volume.x0 = -31;
+    volume.y0 = 12;
+    volume.nx = 40;
+    volume.ny = 33;
+    volume.slots = 4;
+    volume.zwords = 2;
+    volume.bits.assign(std::size_t(volume.nx) * std::size_t(volume.ny) * volume.column_words(), 0u);
+    // Blobs of columns sharing words, so runs span many columns, plus scattered noise.
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < volume.nx; ++x)
+            for (std::size_t w = 0; w < volume.column_words(); ++w) {
+                std::uint32_t& word = volume.column(x, y)[w];
+                if ((x / 7 + y / 5 + int(w)) % 3 == 0) word = 0x0ff0f00fu << (w % 3);
+                if (random() % 9 == 0) word ^= std::uint32_t(random());
+            }
+    volume.finish();
+    const std::array<std::int64_t, 2> root_a{posemap::quantise_root(3.3), posemap::quantise_root(-7.6)};
+    const std::array<std::int64_t, 2> root_b{posemap::quantise_root(-10.2), posemap::quantise_root(28.9)};
+    for (const std::vector<int>& slots : {std::vector<int>{0}, std::vector<int>{1, 2, 3}, std::vector<int>{3, 1}}) {
+        const SparseColumns sparse = sparse_columns(volume, slots);
+        for (const double degrees : {0.0, 17.0, 90.0, 133.0, 251.5}) {
+            const posemap::Trig trig = posemap::quantise_rotation(degrees * std::numbers::pi / 180.0);
+            const std::array<std::int32_t, 4> clip{-40, -30, 35, 40};
+            const int angle_in_batch = 2;
+            std::vector<SliceRun> runs{{7, 7, 7, 7}};  // appended after what is there
+            const int longest = append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clip, runs);
+            // Voxel by voxel: keys of set bits per A column of the clip, then runs along x.
+            const int zbits = 32 * volume.zwords;
+            const std::int32_t key_base = angle_in_batch * std::int32_t(slots.size()) * zbits;
+            std::vector<SliceRun> expected{{7, 7, 7, 7}};
+            int expected_longest = 0;
+            for (std::int32_t key = key_base; key < key_base + std::int32_t(slots.size()) * zbits; ++key) {
+                const int slot = slots[std::size_t((key - key_base) / zbits)], z = (key - key_base) % zbits;
+                for (std::int32_t gy = clip[1]; gy <= clip[3]; ++gy) {
+                    auto set = [&](std::int32_t gx) {
+                        const posemap::Column c = posemap::source_column(gx, gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
+                        const std::int64_t bx = c.x - volume.x0, by = c.y - volume.y0;
+                        if (bx < 0 || by < 0 || bx >= volume.nx || by >= volume.ny) return false;
+                        return ((volume.column(int(bx), int(by))[std::size_t(slot * volume.zwords + z / 32)] >> (z % 32)) & 1u) != 0u;
+                    };
+                    for (std::int32_t gx = clip[0]; gx <= clip[2]; ++gx) {
+                        if (!set(gx)) continue;
+                        std::int32_t end = gx;
+                        while (end + 1 <= clip[2] && set(end + 1)) ++end;
+                        expected.push_back({gy, gx, end, key});
+                        expected_longest = std::max(expected_longest, int(end - gx + 1));
+                        gx = end;
+                    }
+                }
+            }
+            ASSERT_GT(expected.size(), 50u) << degrees;
+            ASSERT_EQ(runs.size(), expected.size()) << degrees;
+            for (std::size_t r = 0; r < runs.size(); ++r) {
+                ASSERT_EQ(runs[r].key, expected[r].key) << degrees << " run " << r;
+                ASSERT_EQ(runs[r].y, expected[r].y) << degrees << " run " << r;
+                ASSERT_EQ(runs[r].x_first, expected[r].x_first) << degrees << " run " << r;
+                ASSERT_EQ(runs[r].x_last, expected[r].x_last) << degrees << " run " << r;
+            }
+            EXPECT_EQ(longest, expected_longest) << degrees;
+        }
+    }
+}
+
 // Descriptors (METHOD.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.
 TEST(Sweep, DescriptorsOfAFaceToFacePose) {
     SweepProblem problem;

@@ -81,6 +81,7 @@ struct MapTest {
     std::vector<int> slots;
     Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
     FixedRuns runs;
+    SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
     // Pairs of runs the map kernel visits for `pulled` (before the row limits).
@@ -170,7 +171,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<int> every_frame(static_cast<std::size_t>(frames));
         for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
         auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
-            return MapTest{&fixed, &moving, std::move(slots), want, {}, nullptr, nullptr};
+            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, nullptr, nullptr};
         };
         auto map_of = [&](const OverlapTest& test) {
             std::vector<int> slots{0};
@@ -206,6 +207,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             for (auto& stage : *all)
                 for (MapTest& test : stage) {
                     test.runs = fixed_runs(*test.fixed, test.slots);
+                    test.moving_words = sparse_columns(*test.moving, test.slots);
                     // Packed (y, x_first | x_last << 16) relative to the volume's origin.
                     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
                         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel",
@@ -436,8 +438,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     using Rows = std::vector<std::array<std::int32_t, 2>>;
     std::unique_ptr<Buffer> pulled, map_words, row_ranges;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows) {
-        // The host cuts each angle's runs on all cores while the device waits: keys grow with the
-        // angle, so sorting each angle's runs and joining them in angle order sorts the batch.
+        // The host cuts each angle's runs on all cores while the device waits: each angle's runs come
+        // sorted by key and keys grow with the angle, so joining them in angle order sorts the batch.
         // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
         // loads across a subgroup.
         std::vector<std::vector<SliceRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
@@ -451,8 +453,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + r[0], range.j_first + r[1]);
                 auto& angle_runs = angle_runs_of[std::size_t(a)];
                 longest_per_angle[std::size_t(a)] =
-                    append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, angle_runs);
-                std::stable_sort(angle_runs.begin(), angle_runs.end(), [](const SliceRun& x, const SliceRun& y) { return x.key < y.key; });
+                    append_pulled_runs(test.moving_words, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, angle_runs);
             } catch (...) {
 #pragma omp critical(amhv_pulled_runs_failure)
                 if (!failure) failure = std::current_exception();
@@ -593,7 +594,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::uint64_t pairs = 0;
         for (const MapTest& test : optional_maps[std::size_t(stage)]) {
             std::vector<SliceRun> runs;
-            append_pulled_runs(*test.moving, test.slots, trig[std::size_t(angle_first)], root_a, root_b, 0,
+            append_pulled_runs(test.moving_words, trig[std::size_t(angle_first)], root_a, root_b, 0,
                                pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first, range.j_last), runs);
             pairs += test.pairs(runs);
         }

@@ -38,16 +38,29 @@ struct Column {
     std::int64_t x, y;  // global lattice column index in B's capture frame
 };
 
-// B's column under A's column (gx, gy) (global lattice indices, already shifted by -(i, j)).
-inline Column source_column(std::int64_t gx, std::int64_t gy, const Trig& trig, std::int64_t root_a_x,
-                            std::int64_t root_a_y, std::int64_t root_b_x, std::int64_t root_b_y) {
+// The pull mapping's products at A column (gx, gy). Along a row, those of column gx + 1 are those of
+// gx plus exact constant increments: stepping gives the same columns without the multiplications.
+struct Step {
+    std::int64_t px = 0, py = 0, dpx = 0, dpy = 0;
+    void advance() { px += dpx, py += dpy; }
+    // Arithmetic shift: floor division by 2^(position + trig bits) for negative values too.
+    Column column() const { return {px >> (kPositionBits + kTrigBits), py >> (kPositionBits + kTrigBits)}; }
+};
+
+inline Step source_step(std::int64_t gx, std::int64_t gy, const Trig& trig, std::int64_t root_a_x, std::int64_t root_a_y,
+                        std::int64_t root_b_x, std::int64_t root_b_y) {
     constexpr std::int64_t half_voxel = std::int64_t(1) << (kPositionBits - 1);
     const std::int64_t dx = gx * (std::int64_t(1) << kPositionBits) + half_voxel - root_a_x;
     const std::int64_t dy = gy * (std::int64_t(1) << kPositionBits) + half_voxel - root_a_y;
-    const std::int64_t px = trig.cos_q * dx + trig.sin_q * dy + root_b_x * (std::int64_t(1) << kTrigBits);
-    const std::int64_t py = -trig.sin_q * dx + trig.cos_q * dy + root_b_y * (std::int64_t(1) << kTrigBits);
-    // Arithmetic shift: floor division by 2^(position + trig bits) for negative values too.
-    return {px >> (kPositionBits + kTrigBits), py >> (kPositionBits + kTrigBits)};
+    return {trig.cos_q * dx + trig.sin_q * dy + root_b_x * (std::int64_t(1) << kTrigBits),
+            -trig.sin_q * dx + trig.cos_q * dy + root_b_y * (std::int64_t(1) << kTrigBits),
+            trig.cos_q * (std::int64_t(1) << kPositionBits), -trig.sin_q * (std::int64_t(1) << kPositionBits)};
+}
+
+// B's column under A's column (gx, gy) (global lattice indices, already shifted by -(i, j)).
+inline Column source_column(std::int64_t gx, std::int64_t gy, const Trig& trig, std::int64_t root_a_x,
+                            std::int64_t root_a_y, std::int64_t root_b_x, std::int64_t root_b_y) {
+    return source_step(gx, gy, trig, root_a_x, root_a_y, root_b_x, root_b_y).column();
 }
 
 }  // namespace amhv::posemap

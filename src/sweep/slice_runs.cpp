@@ -64,6 +64,56 @@ private:
     int* longest_ = nullptr;
 };
 
+// Cuts one row into runs from whole words, column by column in increasing x: a run starts where a
+// bit is set and was clear in the previous column, and ends where it was set and is clear now, so
+// the work is per run end rather than per set voxel.
+class WordRowRuns {
+public:
+    explicit WordRowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
+
+    void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
+        y_ = y;
+        key_base_ = key_base;
+        out_ = &out;
+        longest_ = &longest;
+    }
+    // Column x's non-zero words (each word index at most once); columns not added are empty.
+    void add(std::int32_t word, std::uint32_t bits) {
+        current_[std::size_t(word)] = bits;
+        current_words_.push_back(word);
+    }
+    // Ends column x: compares it with the column before.
+    void end_column(std::int32_t x) {
+        for (const std::int32_t w : current_words_)
+            for (std::uint32_t starts = current_[std::size_t(w)] & ~previous_[std::size_t(w)]; starts != 0u; starts &= starts - 1u)
+                first_[std::size_t(w) * 32 + std::size_t(std::countr_zero(starts))] = x;
+        for (const std::int32_t w : previous_words_) {
+            for (std::uint32_t ends = previous_[std::size_t(w)] & ~current_[std::size_t(w)]; ends != 0u; ends &= ends - 1u)
+                emit(w * 32 + std::countr_zero(ends), x - 1);
+            previous_[std::size_t(w)] = 0u;
+        }
+        // The cleared previous words become the next column's blank current words.
+        std::swap(previous_, current_);
+        std::swap(previous_words_, current_words_);
+        current_words_.clear();
+    }
+    // Closes the row after its last column x_last: every open run goes out.
+    void end_row(std::int32_t x_last) { end_column(x_last + 1); }
+
+private:
+    void emit(std::int32_t bit, std::int32_t x_last) {
+        const std::int32_t x_first = first_[std::size_t(bit)];
+        out_->push_back({y_, x_first, x_last, key_base_ + bit});
+        *longest_ = std::max(*longest_, int(x_last - x_first + 1));
+    }
+    std::vector<std::uint32_t> previous_, current_;
+    std::vector<std::int32_t> previous_words_, current_words_;
+    std::vector<std::int32_t> first_;
+    std::int32_t y_ = 0, key_base_ = 0;
+    std::vector<SliceRun>* out_ = nullptr;
+    int* longest_ = nullptr;
+};
+
 void check_lattice(std::int64_t x0, std::int64_t y0, int nx, int ny) {
     constexpr std::int64_t limit = std::numeric_limits<std::int32_t>::max() / 4;
     if (std::abs(x0) > limit || std::abs(y0) > limit || nx > limit || ny > limit)
@@ -106,32 +156,72 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
     return result;
 }
 
-int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots, const posemap::Trig& trig,
-                       const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b, int angle_in_batch,
-                       const std::array<std::int32_t, 4>& clip, std::vector<SliceRun>& out) {
+SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots) {
     check_lattice(moving.x0, moving.y0, moving.nx, moving.ny);
-    const int zbits = 32 * moving.zwords;
-    int longest = 0;
-    RowRuns row(zbits);
-    for (std::size_t s = 0; s < slots.size(); ++s) {
-        const int slot = slots[s];
+    for (const int slot : slots)
         if (slot < 0 || slot >= moving.slots) fail("sweep", "internal: slot {} of a volume with {} slots", slot, moving.slots);
-        auto box = mapped_bounds(moving, moving.slot_boxes[std::size_t(slot)], trig, root_a, root_b);
-        box = {std::max(box[0], clip[0]), std::max(box[1], clip[1]), std::min(box[2], clip[2]), std::min(box[3], clip[3])};
-        const std::int32_t key_base = (std::int32_t(angle_in_batch) * std::int32_t(slots.size()) + std::int32_t(s)) * zbits;
-        for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
-            row.start_row(gy, key_base, out, longest);
-            for (std::int32_t gx = box[0]; gx <= box[2]; ++gx) {
-                const auto source = posemap::source_column(gx, gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
-                const std::int64_t bx = source.x - moving.x0, by = source.y - moving.y0;
-                if (bx < 0 || by < 0 || bx >= moving.nx || by >= moving.ny) continue;
-                const std::uint32_t* words = moving.column(int(bx), int(by)) + std::size_t(slot) * std::size_t(moving.zwords);
-                for (int w = 0; w < moving.zwords; ++w)
-                    if (words[w] != 0u) row.add(gx, w, words[w]);
+    SparseColumns sparse;
+    sparse.volume = &moving;
+    sparse.slots = slots;
+    const std::size_t columns = std::size_t(moving.nx) * std::size_t(moving.ny);
+    sparse.first.reserve(columns + 1);
+    for (std::size_t c = 0; c < columns; ++c) {
+        sparse.first.push_back(std::uint32_t(sparse.entries.size()));
+        const std::uint32_t* column = moving.bits.data() + c * moving.column_words();
+        for (std::size_t s = 0; s < slots.size(); ++s)
+            for (int w = 0; w < moving.zwords; ++w) {
+                const std::uint32_t bits = column[std::size_t(slots[s]) * std::size_t(moving.zwords) + std::size_t(w)];
+                if (bits != 0u) sparse.entries.push_back({bits, std::int32_t(s) * moving.zwords + w});
             }
-            row.end_row();
-        }
+        if (sparse.entries.size() > std::numeric_limits<std::uint32_t>::max()) fail("sweep", "internal: a moving volume with more than 2^32 words");
     }
+    sparse.first.push_back(std::uint32_t(sparse.entries.size()));
+    return sparse;
+}
+
+int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const std::array<std::int32_t, 4>& clip,
+                       std::vector<SliceRun>& out) {
+    const ColumnVolume& moving = *sparse.volume;
+    const int zbits = 32 * moving.zwords;
+    const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
+    const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
+    // One pass over the union of the slots' mapped boxes: each A column is mapped once and reads
+    // the non-zero words of every slot from its B column. Outside a slot's own box its words are
+    // zero, so the runs are those of slot-by-slot passes.
+    std::array<std::int32_t, 4> box{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max(),
+                                    std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
+    for (const int slot : sparse.slots) {
+        const auto b = mapped_bounds(moving, moving.slot_boxes[std::size_t(slot)], trig, root_a, root_b);
+        if (b[0] > b[2] || b[1] > b[3]) continue;
+        box = {std::min(box[0], b[0]), std::min(box[1], b[1]), std::max(box[2], b[2]), std::max(box[3], b[3])};
+    }
+    box = {std::max(box[0], clip[0]), std::max(box[1], clip[1]), std::min(box[2], clip[2]), std::min(box[3], clip[3])};
+    int longest = 0;
+    // Runs in visiting order (row by row), then counted into key order: within a key they stay in
+    // (y, x) order, as a stable sort by key would leave them.
+    std::vector<SliceRun> visited;
+    WordRowRuns row{key_count / 32};
+    for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
+        row.start_row(gy, key_base, visited, longest);
+        posemap::Step at = posemap::source_step(box[0], gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
+        for (std::int32_t gx = box[0]; gx <= box[2]; ++gx, at.advance()) {
+            const posemap::Column source = at.column();
+            const std::int64_t bx = source.x - moving.x0, by = source.y - moving.y0;
+            if (bx >= 0 && by >= 0 && bx < moving.nx && by < moving.ny) {
+                const std::size_t c = std::size_t(by) * std::size_t(moving.nx) + std::size_t(bx);
+                for (std::uint32_t e = sparse.first[c]; e < sparse.first[c + 1]; ++e) row.add(sparse.entries[e].word, sparse.entries[e].bits);
+            }
+            row.end_column(gx);
+        }
+        row.end_row(box[2]);
+    }
+    std::vector<std::uint32_t> first(key_count + 1, 0u);
+    for (const SliceRun& run : visited) ++first[std::size_t(run.key - key_base) + 1];
+    for (std::size_t k = 0; k < key_count; ++k) first[k + 1] += first[k];
+    const std::size_t base = out.size();
+    out.resize(base + visited.size());
+    for (const SliceRun& run : visited) out[base + first[std::size_t(run.key - key_base)]++] = run;
     return longest;
 }
 

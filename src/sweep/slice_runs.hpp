@@ -34,12 +34,28 @@ struct FixedRuns {
 
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
 
-// Appends the runs of `moving` pulled under A's lattice at pose (0, 0, angle) (the mapping of
-// pose_map.hpp), for `slots`, with keys for `angle_in_batch`, cut to the columns in `clip`
-// ([x_first, y_first, x_last, y_last], global A lattice). Returns the longest run appended.
-int append_pulled_runs(const ColumnVolume& moving, const std::vector<int>& slots, const posemap::Trig& trig,
-                       const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b, int angle_in_batch,
-                       const std::array<std::int32_t, 4>& clip, std::vector<SliceRun>& out);
+// The non-zero words of `slots` of a moving volume, column by column: what cutting pulled runs
+// reads. A frame fills a small part of the segment's columns, so most of its words are zero.
+struct SparseColumns {
+    const ColumnVolume* volume = nullptr;
+    std::vector<int> slots;
+    std::vector<std::uint32_t> first;  // per local column y * nx + x: its first entry (one more at the end)
+    struct Entry {
+        std::uint32_t bits;
+        std::int32_t word;  // slot_index * zwords + word
+    };
+    std::vector<Entry> entries;
+};
+
+SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots);
+
+// Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
+// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, cut to the columns in
+// `clip` ([x_first, y_first, x_last, y_last], global A lattice). The appended runs are sorted by
+// key, then y, then x. Returns the longest run appended.
+int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const std::array<std::int32_t, 4>& clip,
+                       std::vector<SliceRun>& out);
 
 // The pulled columns that can meet `fixed` at an offset (i, j) with i in [i_first, i_last] and j
 // in [j_first, j_last]: column g meets fixed column g + (i, j), so g lies in the fixed volume's
