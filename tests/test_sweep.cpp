@@ -291,7 +291,6 @@ TEST(Sweep, MapChunksCoverManyRunsPerSlice) {
     EXPECT_GT(both.gpu.rejected[0], 0u);
 }
 
-// Pooling over a block of offsets: every column of the result is the OR of the block's columns.
 // The view cone is cut per column analytically; it must hold exactly the voxels whose centres a
 // plain test puts inside, for cones looking level, up, down and straight down, narrow and at the
 // full 90 degrees, with and without a range, with the eye inside and outside the region.
@@ -311,8 +310,12 @@ TEST(Sweep, ViewConeVolumeIsEveryCentreInsideTheCone) {
                          5 + 42.5 * (1 + u(random)), i % 2 ? 0.0 : 0.5 + 1.5 * (1 + u(random))});
     for (std::size_t k = 0; k < cones.size(); ++k) {
         const ViewCone& cone = cones[k];
-        Amhv volume = view_cone_volume(cone, region, h);
+        const ConeVolume cone_volume = view_cone_volume(cone, region, h);
+        const Amhv volume = cone_volume.to_amhv();
         const VoxelGrid& g = volume.grid();
+        // The sweep's columns come straight from the spans: the same bits as from the dense volume.
+        const ZFrame z_frame = z_frame_covering({&g});
+        EXPECT_EQ(columns_of(cone_volume, z_frame).bits, columns_of(volume, z_frame, false).bits) << "cone " << k;
         const double cos_half = std::cos(cone.half_angle_deg * std::numbers::pi / 180.0);
         std::size_t differing = 0, inside = 0;
         for (int z = 0; z < g.dims[2]; ++z)
@@ -331,6 +334,7 @@ TEST(Sweep, ViewConeVolumeIsEveryCentreInsideTheCone) {
     }
 }
 
+// Pooling over a block of offsets: every column of the result is the OR of the block's columns.
 TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
     std::mt19937 random(7);
     ColumnVolume volume;

@@ -148,8 +148,10 @@ SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int firs
     result.range = r;
     result.outcomes.assign(r.size(), PoseOutcome::FailsContact);
     ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}};
-    if (problem.visibility) a.cone = occupied_voxels(problem.a.view_cone);
-    const BSide b{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(problem.b.view_cone)};
+    // The plain reference reads the cones as dense one-frame volumes.
+    const Amhv cone_a = problem.visibility ? problem.a.view_cone.to_amhv() : Amhv(), cone_b = problem.visibility ? problem.b.view_cone.to_amhv() : Amhv();
+    if (problem.visibility) a.cone = occupied_voxels(cone_a);
+    const BSide b{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(cone_b)};
     const int last_angle = std::min(r.angles, first_angle + angle_count);
     for (int k = first_angle; k < last_angle; ++k) {
         for (int j = r.j_first; j <= r.j_last; ++j)

@@ -119,7 +119,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
 
     // ---- column volumes, uploaded once ----
     std::vector<const VoxelGrid*> grids{&A.whole.grid(), &B.whole.grid()};
-    if (problem.visibility) grids.insert(grids.end(), {&A.view_cone.grid(), &B.view_cone.grid()});
+    if (problem.visibility) grids.insert(grids.end(), {&A.view_cone.grid, &B.view_cone.grid});
     const ZFrame z = z_frame_covering(grids);
     std::vector<std::unique_ptr<GpuVolume>> volumes;
     auto add = [&](ColumnVolume columns) {
@@ -158,8 +158,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     }
     stages[2].push_back({add(columns_of(A.fidelity, z, true)), add(columns_of(B.fidelity, z, true)), frames, Want::NoOverlap});
     if (problem.visibility) {
-        stages[3].push_back({add(columns_of(A.view_cone, z, false)), add(columns_of(B.whole, z, false)), 0, Want::Overlap});
-        stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z, false)), 0, Want::Overlap});
+        stages[3].push_back({add(columns_of(A.view_cone, z)), add(columns_of(B.whole, z, false)), 0, Want::Overlap});
+        stages[3].push_back({add(columns_of(A.whole, z, false)), add(columns_of(B.view_cone, z)), 0, Want::Overlap});
     }
 
     // Overlap maps (SweeperOptions::maps): tests decided for every offset of an angle at once from

@@ -11,8 +11,7 @@ namespace amhv {
 
 namespace {
 
-ColumnVolume empty_like(const Amhv& volume, const ZFrame& z, int slots) {
-    const VoxelGrid& g = volume.grid();
+ColumnVolume empty_like(const VoxelGrid& g, const ZFrame& z, int slots) {
     ColumnVolume c;
     const auto origin = g.lattice_origin();
     c.x0 = origin[0];
@@ -95,7 +94,7 @@ void ColumnVolume::finish() {
 
 ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
     const int frames = volume.frames();
-    ColumnVolume c = empty_like(volume, z, with_frames ? frames + 1 : 1);
+    ColumnVolume c = empty_like(volume.grid(), z, with_frames ? frames + 1 : 1);
     const std::size_t slot_words = std::size_t(z.words);
     for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
         column[word] |= bit;
@@ -110,8 +109,20 @@ ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
     return c;
 }
 
+ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z) {
+    ColumnVolume c = empty_like(cone.grid, z, 1);
+    const std::int64_t z0 = cone.grid.lattice_origin()[2] - z.z_first;
+    for (int y = 0; y < cone.grid.dims[1]; ++y)
+        for (int x = 0; x < cone.grid.dims[0]; ++x) {
+            std::uint32_t* column = c.column(x, y);
+            for (std::int64_t bit = z0 + cone.span(x, y)[0]; bit <= z0 + cone.span(x, y)[1]; ++bit) column[bit / 32] |= 1u << (bit % 32);
+        }
+    c.finish();
+    return c;
+}
+
 ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep) {
-    ColumnVolume c = empty_like(volume, z, 1);
+    ColumnVolume c = empty_like(volume.grid(), z, 1);
     for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
         if (keep(v)) column[word] |= bit;
     });
@@ -121,7 +132,7 @@ ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::funct
 
 ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool started_by) {
     const int frames = volume.frames();
-    ColumnVolume c = empty_like(volume, z, frames + 1);
+    ColumnVolume c = empty_like(volume.grid(), z, frames + 1);
     const std::size_t slot_words = std::size_t(z.words);
     for_each_occupied_voxel(volume, z, c, [&](std::uint32_t* column, int word, std::uint32_t bit, std::size_t v) {
         column[word] |= bit;

@@ -11,6 +11,7 @@
 
 #include "core/amhv.hpp"
 #include "sweep/pose_map.hpp"
+#include "sweep/problem.hpp"
 
 namespace amhv {
 
@@ -48,6 +49,8 @@ struct ColumnVolume {
 
 // Union (and, with `with_frames`, every frame) of `volume`.
 ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames);
+// One slot: the voxels of a view cone.
+ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z);
 // One slot: the voxels of `volume` for which `keep(voxel index)` holds.
 ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep);
 // Union plus, per frame t, the voxels with t_start <= t (`started_by`) or with t_end >= t.

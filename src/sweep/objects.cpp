@@ -83,7 +83,7 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
     return object;
 }
 
-Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
+ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
     // The grid on the lattice covering `region` (no margin needed: it is already generous).
     VoxelGrid grid;
     grid.voxel = voxel;
@@ -94,7 +94,9 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
         if (grid.dims[axis] < 1 || grid.dims[axis] > 4 * kMaxGridAxis)
             fail("view cone", "its region spans {} voxels along an axis; narrow the range or use a larger voxel", grid.dims[axis]);
     }
-    Amhv out(grid, 1);
+    ConeVolume out;
+    out.grid = grid;
+    out.spans.assign(std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]), {1, 0});
     const Vec3 axis = cone.gaze.normalized();
     const double cos_half = std::cos(cone.half_angle_deg * std::numbers::pi / 180.0);
     // A point at `length` from the eye, `along` of it along the gaze, is in the cone.
@@ -110,8 +112,8 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
     // meets them in one interval of heights t = z - eye.z. Its ends are roots of
     //   (az^2 - c^2) t^2 + 2 p az t + (p^2 - c^2 r^2) = 0      (along^2 = c^2 length^2)
     // or of t^2 = range^2 - r^2, so the column is split at those roots and each piece tested at
-    // its middle; the voxel ends are then settled by the predicate itself. This visits each
-    // column's interval instead of every voxel of the region (often 50 M at 1 cm).
+    // its middle; the voxel ends are then settled by the predicate itself. Each column's interval
+    // is found without visiting its voxels (the region often holds 10^8 at 1 cm).
     const double h = grid.voxel, c2 = cos_half * cos_half;
     const double z_low = grid.origin.z() + 0.5 * h - cone.eye.z(), z_high = z_low + (grid.dims[2] - 1) * h;
     std::vector<double> cuts;  // reused by every column: at most 7 cuts
@@ -154,7 +156,7 @@ Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
             while (last + 1 < grid.dims[2] && inside(x, y, last + 1)) ++last;
             while (first <= last && !inside(x, y, first)) ++first;
             while (last >= first && !inside(x, y, last)) --last;
-            for (int z = first; z <= last; ++z) out.set(grid.index(x, y, z), 0);
+            if (first <= last) out.spans[std::size_t(y) * std::size_t(grid.dims[0]) + std::size_t(x)] = {first, last};
         }
     return out;
 }

@@ -51,8 +51,8 @@ struct ViewCone {
     double half_angle_deg = 30;
     double range = 0;           // 0: unlimited
 };
-// The voxels (one frame) of the lattice of edge `voxel` inside `region` whose centre lies inside
-// the cone. Evaluated once on the host; both sweep backends read the same bits.
-Amhv view_cone_volume(const ViewCone& cone, const Box3& region, double voxel);
+// The voxels of the lattice of edge `voxel` inside `region` whose centre lies inside the cone.
+// Evaluated once on the host; both sweep backends read the same voxels.
+ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double voxel);
 
 }  // namespace amhv

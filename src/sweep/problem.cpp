@@ -45,8 +45,10 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
         fail(what, "its grid is not on the {} m lattice or is too far from the origin", problem.voxel);
     if (summarise(object.interest).occupied_voxels == 0) fail(what, "its volume of interest is empty in this key segment");
     if (problem.visibility) {
-        if (object.view_cone.frames() != 1) fail(what, "visibility is asked for but it has no view cone");
-        if (!is_lattice_aligned(object.view_cone.grid(), problem.voxel)) fail(what, "its view cone grid is not on the lattice");
+        const VoxelGrid& cone = object.view_cone.grid;
+        if (object.view_cone.empty() || object.view_cone.spans.size() != std::size_t(cone.dims[0]) * std::size_t(cone.dims[1]))
+            fail(what, "visibility is asked for but it has no view cone");
+        if (!is_lattice_aligned(cone, problem.voxel)) fail(what, "its view cone grid is not on the lattice");
     }
     if (!(std::abs(object.facing.norm() - 1.0) < 1e-6)) fail(what, "its facing is not a unit vector");
 }
@@ -54,6 +56,14 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
 }  // namespace
 
 posemap::Trig SweepProblem::trig(int k) const { return posemap::quantise_rotation(angle_deg(k) * std::numbers::pi / 180.0); }
+
+Amhv ConeVolume::to_amhv() const {
+    Amhv out(grid, 1);
+    for (int y = 0; y < grid.dims[1]; ++y)
+        for (int x = 0; x < grid.dims[0]; ++x)
+            for (int z = span(x, y)[0]; z <= span(x, y)[1]; ++z) out.set(grid.index(x, y, z), 0);
+    return out;
+}
 
 std::array<std::int64_t, 2> SweepProblem::root_a_q() const {
     return {posemap::quantise_root(a.root.x() / voxel), posemap::quantise_root(a.root.y() / voxel)};

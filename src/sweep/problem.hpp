@@ -15,15 +15,28 @@
 
 namespace amhv {
 
+// The voxels of a grid whose centres lie inside a view cone, stored per vertical column: the cone
+// and its range ball are convex, so each column holds one interval of voxels. This keeps the cone
+// small where a dense volume would not be (a cone over every pose's reach spans 10^8 voxels at 1 cm).
+struct ConeVolume {
+    VoxelGrid grid;  // dims 0: no cone
+    // Per column y * nx + x: the first and last voxel z inside (first > last: none).
+    std::vector<std::array<std::int32_t, 2>> spans;
+    bool empty() const { return spans.empty(); }
+    const std::array<std::int32_t, 2>& span(int x, int y) const { return spans[std::size_t(y) * std::size_t(grid.dims[0]) + std::size_t(x)]; }
+    // The same voxels as a one-frame aMHV (the plain CPU reference reads cones this way).
+    Amhv to_amhv() const;
+};
+
 // One object's volumes in one key segment, all on the object's segment grid and over the same
-// normalised frames; `view_cone` (one frame, any grid of the same edge) is the set of voxels whose
-// centre lies inside the object's view cone.
+// normalised frames; `view_cone` (any grid of the same edge) is the set of voxels whose centre
+// lies inside the object's view cone.
 struct SweepObject {
     std::string name;
     Amhv interest;  // I: the contact part
     Amhv fidelity;  // N: must never share a voxel with the other's N at the same frame
     Amhv whole;     // W: the whole body, seen by the other's view cone
-    Amhv view_cone; // empty (0 frames) when visibility is not asked for
+    ConeVolume view_cone;  // empty when visibility is not asked for
     Vec3 root = Vec3::Zero();                        // C: of the whole body's aMHV
     Eigen::Vector2d facing = Eigen::Vector2d::UnitX();  // F: unit, on the floor
 };
