@@ -5,15 +5,22 @@
 // (src/sweep/slice_runs.hpp): a fixed run (y_a, [xa0, xa1]) and a pulled run (y_b, [xb0, xb1]) at
 // the same z and slot pair overlap exactly at the offsets j = y_a - y_b, xa0 - xb1 <= i <= xa1 - xb0.
 // The map is the union of those intervals, one bit per offset, so its cost is one step per pair
-// of runs, whatever the number of poses.
+// of runs, whatever the number of poses. Where only some poses are still in play, the host gives
+// each pulled run only the rows that can reach one, and drops runs that reach none: the map is
+// then exact on those poses, the only ones read.
 //
 // One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). The host
-// sizes the chunks so that a binary search plus runs * (words an interval spans + 2) stays under
+// sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays under
 // lavapipe's per-invocation loop cap.
 layout(local_size_x_id = 0) in;
 
+// Pulled runs: y (global), x_first | x_last << 16 relative to pulled_x0, key, and the rows j the
+// run is paired on (first | last << 16), cut by the host to where poses are still in play.
 struct Run {
-    int y, x_first, x_last, key;
+    int y;
+    uint x;
+    int key;
+    uint rows;
 };
 // Packed to halve the loads: (y, x_first | x_last << 16), relative to (fixed_x0, fixed_y0); sorted
 // by key, then y.
@@ -22,8 +29,6 @@ layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_key
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
 // [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
 layout(std430, set = 0, binding = 3) buffer Maps { uint maps[]; };
-// Per angle in batch: the rows j (first, last) that still have poses; pairs outside are skipped.
-layout(std430, set = 0, binding = 4) readonly buffer AngleRows { ivec2 angle_rows[]; };
 
 layout(push_constant) uniform Params {
     uint item_base;
@@ -33,7 +38,7 @@ layout(push_constant) uniform Params {
     int range_i0, range_j0, range_ni, range_nj, row_words;
     // 1: one map per slot pair (every-frame tests); 0: one map for all.
     int map_per_slot;
-    int fixed_x0, fixed_y0;
+    int fixed_x0, fixed_y0, pulled_x0;
 } params;
 
 void main() {
@@ -45,8 +50,8 @@ void main() {
     int angle_slot = b.key / params.zbits;
     int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;
     ivec2 key = fixed_keys[slot * params.zbits + z];
-    ivec2 rows = angle_rows[angle];
-    int y_first = b.y + params.range_j0 + rows.x - params.fixed_y0, y_last = b.y + params.range_j0 + rows.y - params.fixed_y0;
+    int b_x_first = int(b.x & 0xffffu) + params.pulled_x0, b_x_last = int(b.x >> 16u) + params.pulled_x0;
+    int y_first = b.y + params.range_j0 + int(b.rows & 0xffffu) - params.fixed_y0, y_last = b.y + params.range_j0 + int(b.rows >> 16u) - params.fixed_y0;
     // A key's fixed runs are sorted by y: start at the first one on row y_first or later.
     int lo = key.x, hi = key.x + key.y;
     while (lo < hi) {
@@ -64,8 +69,8 @@ void main() {
         if (a_y > y_last) break;
         int j = a_y + params.fixed_y0 - b.y - params.range_j0;
         int a_x_first = int(a.y & 0xffffu) + params.fixed_x0, a_x_last = int(a.y >> 16u) + params.fixed_x0;
-        int lo = max(a_x_first - b.x_last - params.range_i0, 0);
-        int hi = min(a_x_last - b.x_first - params.range_i0, params.range_ni - 1);
+        int lo = max(a_x_first - b_x_last - params.range_i0, 0);
+        int hi = min(a_x_last - b_x_first - params.range_i0, params.range_ni - 1);
         if (lo > hi) continue;
         uint row = map_base + uint(j) * uint(params.row_words);
         // Most intervals land where other pairs already set the bits: a plain read skips the atomic.

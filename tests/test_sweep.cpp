@@ -183,7 +183,7 @@ TEST(Sweep, RandomScenesMatchReference) {
             if (pose_test_pairs > 0) {
                 EXPECT_EQ(stats.pose_tests_per_stage[1] + stats.pose_tests_per_stage[2] + stats.pose_tests_per_stage[3], 0u);
                 if (stats.poses_per_stage[2] > 0) {
-                    EXPECT_GT(stats.pulled_runs_per_stage[2], 0u);
+                    EXPECT_GT(stats.maps_per_stage[2], 0u);
                 }
             }
         }

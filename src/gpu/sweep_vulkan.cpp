@@ -39,9 +39,19 @@ struct MapParams {
     std::int32_t zbits, slot_count;
     std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
     std::int32_t map_per_slot;
-    std::int32_t fixed_x0, fixed_y0;
+    std::int32_t fixed_x0, fixed_y0, pulled_x0;
 };
 static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
+
+// A pulled run as the map kernel reads it: x packed relative to the batch's pulled_x0, and the
+// rows j (first | last << 16) it is paired on.
+struct PulledRun {
+    std::int32_t y;
+    std::uint32_t x;
+    std::int32_t key;
+    std::uint32_t rows;
+};
+static_assert(sizeof(PulledRun) == 16);
 
 struct GpuAngle {
     std::int64_t trig[2];
@@ -81,15 +91,11 @@ struct MapTest {
     std::vector<int> slots;
     Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
     FixedRuns runs;
+    // Per fixed key: the box of its runs (x_first, x_last, y_first, y_last; global; empty: first > last).
+    std::vector<std::array<std::int32_t, 4>> key_boxes;
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
-    // Pairs of runs the map kernel visits for `pulled` (before the row limits).
-    std::uint64_t pairs(const std::vector<SliceRun>& pulled) const {
-        std::uint64_t total = 0;
-        for (const SliceRun& run : pulled) total += std::uint64_t(runs.by_key[std::size_t(run.key) % runs.by_key.size()][1]);
-        return total;
-    }
 };
 
 struct Blocks {
@@ -103,7 +109,7 @@ VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
     : context_(context),
       options_(options),
       overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
-      map_(context, sweep_map_spv, 5, sizeof(MapParams), {kWorkgroup}) {}
+      map_(context, sweep_map_spv, 4, sizeof(MapParams), {kWorkgroup}) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -171,7 +177,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<int> every_frame(static_cast<std::size_t>(frames));
         for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
         auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
-            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, nullptr, nullptr};
+            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, {}, nullptr, nullptr};
         };
         auto map_of = [&](const OverlapTest& test) {
             std::vector<int> slots{0};
@@ -208,6 +214,16 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 for (MapTest& test : stage) {
                     test.runs = fixed_runs(*test.fixed, test.slots);
                     test.moving_words = sparse_columns(*test.moving, test.slots);
+                    test.key_boxes.assign(test.runs.by_key.size(), {1, 0, 1, 0});
+                    for (std::size_t k = 0; k < test.runs.by_key.size(); ++k) {
+                        const auto [first, count] = test.runs.by_key[k];
+                        if (count == 0) continue;
+                        auto& box = test.key_boxes[k];
+                        box = {std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::min(), test.runs.runs[std::size_t(first)].y,
+                               test.runs.runs[std::size_t(first + count - 1)].y};
+                        for (std::int32_t r = first; r < first + count; ++r)
+                            box[0] = std::min(box[0], test.runs.runs[std::size_t(r)].x_first), box[1] = std::max(box[1], test.runs.runs[std::size_t(r)].x_last);
+                    }
                     // Packed (y, x_first | x_last << 16) relative to the volume's origin.
                     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
                         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel",
@@ -436,38 +452,126 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
     // batch: the rows that still have poses. Bits elsewhere stay clear.
     using Rows = std::vector<std::array<std::int32_t, 2>>;
-    std::unique_ptr<Buffer> pulled, map_words, row_ranges;
-    auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows) {
+    // Cuts one angle's pulled runs for a map test and gives each the rows j it must be paired on:
+    // those where the fixed runs at its key lie and, where only some poses are still in play
+    // (`candidates`: per pose of the angle, in outcome order; null: all), the rows of the smallest
+    // band that holds every such pose its pairs can reach. Runs that reach none are dropped. The
+    // map is then exact on the poses in play and nowhere else, which is all that is read of it
+    // (fidelity, for one, reaches few of them: most pairs of body runs meet far from any).
+    struct CutResult {
+        std::uint64_t pairs = 0;  // pairs of runs the kernel will visit
+        int longest = 0;
+    };
+    struct PulledCutter {  // scratch reused by one thread
+        std::vector<SliceRun> runs;
+        std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
+    };
+    const int width = range.width(), height = range.height();
+    if (width > 0xffff || height > 0xffff) fail("sweep", "a range of {} x {} offsets is more than the sweep handles (65,535 per side); narrow it", width, height);
+    auto cut_pulled_runs = [&](PulledCutter& cutter, const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows,
+                               const std::uint8_t* candidates, std::vector<PulledRun>& out) {
+        CutResult cut;
+        if (rows[0] > rows[1] || test.runs.runs.empty()) return cut;
+        const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + rows[0], range.j_first + rows[1]);
+        cutter.runs.clear();
+        cut.longest = append_pulled_runs(test.moving_words, trig[std::size_t(angle)], root_a, root_b, angle_in_batch, clip, cutter.runs);
+        const std::size_t stride = std::size_t(width) + 1;
+        if (candidates) {
+            cutter.prefix.assign(stride * (std::size_t(height) + 1), 0u);
+            for (int j = 0; j < height; ++j) {
+                std::uint32_t row_count = 0;
+                for (int i = 0; i < width; ++i) {
+                    row_count += candidates[std::size_t(j) * std::size_t(width) + std::size_t(i)];
+                    cutter.prefix[(std::size_t(j) + 1) * stride + std::size_t(i) + 1] = cutter.prefix[std::size_t(j) * stride + std::size_t(i) + 1] + row_count;
+                }
+            }
+        }
+        // Poses in play in columns i0..i1 and rows j0..j1.
+        auto in_play = [&](int i0, int i1, int j0, int j1) {
+            const auto at = [&](int j, int i) { return cutter.prefix[std::size_t(j) * stride + std::size_t(i)]; };
+            return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
+        };
+        const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
+        const std::int32_t x_base = std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last;
+        for (const SliceRun& run : cutter.runs) {
+            const std::int32_t fixed_key = run.key % keys_per_angle;
+            const auto& box = test.key_boxes[std::size_t(fixed_key)];
+            if (box[0] > box[1]) continue;
+            // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
+            int j0 = std::max(rows[0], box[2] - run.y - range.j_first), j1 = std::min(rows[1], box[3] - run.y - range.j_first);
+            if (j0 > j1) continue;
+            if (candidates) {
+                const int i0 = std::max(0, box[0] - run.x_last - range.i_first), i1 = std::min(width - 1, box[1] - run.x_first - range.i_first);
+                if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
+                // The first and last rows with a pose in play (counts grow monotonically with the band).
+                int lo = j0, hi = j1;
+                while (lo < hi) {
+                    const int mid = lo + (hi - lo) / 2;
+                    if (in_play(i0, i1, j0, mid) > 0) hi = mid;
+                    else lo = mid + 1;
+                }
+                const int first = lo;
+                lo = first, hi = j1;
+                while (lo < hi) {
+                    const int mid = lo + (hi - lo + 1) / 2;
+                    if (in_play(i0, i1, mid, j1) > 0) lo = mid;
+                    else hi = mid - 1;
+                }
+                j0 = first, j1 = lo;
+            }
+            const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
+            const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
+            const auto from = std::lower_bound(key_begin, key_end, run.y + range.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
+            const auto to = std::upper_bound(from, key_end, run.y + range.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
+            cut.pairs += std::uint64_t(to - from);
+            out.push_back({run.y, std::uint32_t(run.x_first - x_base) | std::uint32_t(run.x_last - x_base) << 16, run.key,
+                           std::uint32_t(j0) | std::uint32_t(j1) << 16});
+        }
+        return cut;
+    };
+
+    // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
+    // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
+    // batch and, where `candidates` is given (per pose of the batch), exactly only on those poses.
+    std::unique_ptr<Buffer> pulled, map_words;
+    auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* candidates) {
         // The host cuts each angle's runs on all cores while the device waits: each angle's runs come
         // sorted by key and keys grow with the angle, so joining them in angle order sorts the batch.
         // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
         // loads across a subgroup.
-        std::vector<std::vector<SliceRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
-        std::vector<int> longest_per_angle(static_cast<std::size_t>(batch_angles), 0);
+        const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width;
+        if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
+        std::vector<std::vector<PulledRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
+        std::vector<CutResult> cut_of(static_cast<std::size_t>(batch_angles));
         std::exception_ptr failure;  // an exception must not leave the parallel loop: kept, rethrown after it
-#pragma omp parallel for schedule(dynamic)
-        for (int a = 0; a < batch_angles; ++a) {
-            const auto& r = rows[std::size_t(a)];
-            if (r[0] > r[1]) continue;
-            try {
-                const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + r[0], range.j_first + r[1]);
-                auto& angle_runs = angle_runs_of[std::size_t(a)];
-                longest_per_angle[std::size_t(a)] =
-                    append_pulled_runs(test.moving_words, trig[std::size_t(angle_first + a)], root_a, root_b, a, clip, angle_runs);
-            } catch (...) {
+#pragma omp parallel
+        {
+            PulledCutter cutter;
+#pragma omp for schedule(dynamic)
+            for (int a = 0; a < batch_angles; ++a) {
+                try {
+                    cut_of[std::size_t(a)] = cut_pulled_runs(cutter, test, angle_first + a, a, rows[std::size_t(a)],
+                                                             candidates ? candidates->data() + std::size_t(a) * per_angle : nullptr,
+                                                             angle_runs_of[std::size_t(a)]);
+                } catch (...) {
 #pragma omp critical(amhv_pulled_runs_failure)
-                if (!failure) failure = std::current_exception();
+                    if (!failure) failure = std::current_exception();
+                }
             }
         }
         if (failure) std::rethrow_exception(failure);
-        std::vector<SliceRun> runs;
+        std::vector<PulledRun> runs;
         std::size_t total_runs = 0;
-        for (const auto& angle_runs : angle_runs_of) total_runs += angle_runs.size();
+        int longest = 0;
+        for (int a = 0; a < batch_angles; ++a) {
+            total_runs += angle_runs_of[std::size_t(a)].size();
+            longest = std::max(longest, cut_of[std::size_t(a)].longest);
+            stats_.run_pairs_per_stage[std::size_t(stage)] += cut_of[std::size_t(a)].pairs;
+        }
         runs.reserve(total_runs);
         for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
-        const int longest = *std::max_element(longest_per_angle.begin(), longest_per_angle.end());
         stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
-        stats_.run_pairs_per_stage[std::size_t(stage)] += test.pairs(runs);
+        ++stats_.maps_per_stage[std::size_t(stage)];
         const int maps = test.maps_per_angle();
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
         ensure_host_capacity(context_, map_words, map_bytes);
@@ -485,14 +589,13 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
             if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
                 fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-            ensure_host_capacity(context_, pulled, runs.size() * sizeof(SliceRun));
-            std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(SliceRun));
-            ensure_host_capacity(context_, row_ranges, rows.size() * 8);
-            std::memcpy(row_ranges->mapped<std::uint8_t>().data(), rows.data(), rows.size() * 8);
-            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get(), row_ranges.get()}));
+            ensure_host_capacity(context_, pulled, runs.size() * sizeof(PulledRun));
+            std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(PulledRun));
+            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get()}));
             const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                    range.i_first, range.j_first, range.width(), range.height(), row_words,
-                                   test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0)};
+                                   test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
+                                   std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last};
             stats_.work_items += items;
             sequence.dispatch(map_, *set, params, std::uint32_t(items));
         }
@@ -588,18 +691,23 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     };
 
     // The cost model: a stage's optional maps pay off when its poses, tested one by one, would cost
-    // more than the run pairs of its maps (estimated from the batch's first angle).
-    auto maps_pay_off = [&](int stage, std::size_t pose_count, int angle_first, int batch_angles) {
+    // more than the run pairs of its maps (estimated from one angle of the batch).
+    auto maps_pay_off = [&](int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
+                            const std::vector<std::uint8_t>& candidates) {
         if (optional_maps[std::size_t(stage)].empty() || pose_count == 0) return false;
+        // The first angle with poses in play stands for every angle with some.
+        int sample = 0, angles_in_play = 0;
+        for (int a = batch_angles - 1; a >= 0; --a)
+            if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
         std::uint64_t pairs = 0;
+        PulledCutter cutter;
         for (const MapTest& test : optional_maps[std::size_t(stage)]) {
-            std::vector<SliceRun> runs;
-            append_pulled_runs(test.moving_words, trig[std::size_t(angle_first)], root_a, root_b, 0,
-                               pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first, range.j_last), runs);
-            pairs += test.pairs(runs);
+            std::vector<PulledRun> runs;
+            pairs += cut_pulled_runs(cutter, test, angle_first + sample, 0, rows[std::size_t(sample)],
+                                     candidates.data() + std::size_t(sample) * per_angle, runs).pairs;
         }
         const double pose_cost = double(pose_count) * options_.pose_test_pairs;
-        return pose_cost > double(pairs) * double(batch_angles);
+        return pose_cost > double(pairs) * double(angles_in_play);
     };
     for (int angle_first = 0; angle_first < range.angles; angle_first += angles_per_batch) {
         const int batch_angles = std::min(angles_per_batch, range.angles - angle_first);
@@ -615,7 +723,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         if (options_.maps) {
             // Contact, then the required dictionary maps on the poses in contact, every offset at once.
             const Rows all_rows(std::size_t(batch_angles), {0, range.height() - 1});
-            const auto contact = run_map(required_maps[0].front(), 0, angle_first, batch_angles, all_rows);
+            const auto contact = run_map(required_maps[0].front(), 0, angle_first, batch_angles, all_rows, nullptr);
             lap(stats_.seconds_per_stage[0]);
             Rows contact_rows(std::size_t(batch_angles), {range.height(), -1});
             for (std::uint64_t p = 0; p < batch_poses; ++p)
@@ -625,7 +733,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                     r = {std::min(r[0], j), std::max(r[1], j)};
                 }
             std::vector<std::vector<std::uint8_t>> dictionary;
-            for (MapTest& test : required_maps[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows));
+            for (MapTest& test : required_maps[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
             for (std::uint64_t p = 0; p < batch_poses; ++p) {
                 if (!contact[p]) continue;
                 ++stats_.poses_per_stage[1];
@@ -666,14 +774,16 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 continue;
             }
             std::vector<std::uint8_t> passes;
-            if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles)) {
-                Rows rows(std::size_t(batch_angles), {range.height(), -1});
-                for (const Pose& q : survivors) {
-                    auto& r = rows[std::size_t(q[0] - angle_first)];
-                    r = {std::min(r[0], q[2] - range.j_first), std::max(r[1], q[2] - range.j_first)};
-                }
+            Rows rows(std::size_t(batch_angles), {range.height(), -1});
+            std::vector<std::uint8_t> candidates(batch_poses, 0);
+            for (const Pose& q : survivors) {
+                auto& r = rows[std::size_t(q[0] - angle_first)];
+                r = {std::min(r[0], q[2] - range.j_first), std::max(r[1], q[2] - range.j_first)};
+                candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle)] = 1;
+            }
+            if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles, rows, candidates)) {
                 std::vector<std::vector<std::uint8_t>> meets;
-                for (MapTest& test : optional_maps[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles, rows));
+                for (MapTest& test : optional_maps[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates));
                 passes.resize(survivors.size());
                 for (std::size_t p = 0; p < survivors.size(); ++p) {
                     const Pose& q = survivors[p];

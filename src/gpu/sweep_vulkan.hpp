@@ -42,6 +42,7 @@ struct SweepStats {
     std::array<double, 4> seconds_per_stage{};        // wall time of each stage, host work included
     std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
     std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
+    std::array<std::uint64_t, 4> maps_per_stage{};         // overlap maps computed (per batch and test)
     std::array<std::uint64_t, 4> pulled_runs_per_stage{};  // slice runs of B mapped by overlap maps
     std::array<std::uint64_t, 4> run_pairs_per_stage{};    // pairs of fixed and pulled runs the maps visited
 };
