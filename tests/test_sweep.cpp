@@ -172,10 +172,11 @@ TEST(Sweep, RandomScenesMatchReference) {
         SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 11]);
         expect_identical(both);
         // Overlap maps (the default) decide contact without a single pose test; every other stage
-        // can go by maps too, or pose by pose, whatever the cost model says.
-        for (double pose_test_pairs : {0.0, 1e12}) {
-            gpu::VulkanSweeper mapped(test::context(), {.pose_test_pairs = pose_test_pairs});
-            EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes) << pose_test_pairs;
+        // can go by maps too (in one pass over the z slices or several), or pose by pose, whatever
+        // the cost model says.
+        for (const auto& [pose_test_pairs, map_passes] : {std::pair{0.0, 4}, std::pair{1e12, 4}, std::pair{1e12, 1}, std::pair{1e12, 3}}) {
+            gpu::VulkanSweeper mapped(test::context(), {.pose_test_pairs = pose_test_pairs, .map_passes = map_passes});
+            EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes) << pose_test_pairs << " " << map_passes;
             test::expect_no_validation_messages();
             const auto& stats = mapped.last_stats();
             EXPECT_EQ(stats.pose_tests_per_stage[0], 0u);

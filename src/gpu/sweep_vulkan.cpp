@@ -448,59 +448,57 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
     const int angles_per_batch = int(std::max<std::uint64_t>(1, batch_limit));
 
-    // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
-    // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
-    // batch: the rows that still have poses. Bits elsewhere stay clear.
     using Rows = std::vector<std::array<std::int32_t, 2>>;
-    // Cuts one angle's pulled runs for a map test and gives each the rows j it must be paired on:
-    // those where the fixed runs at its key lie and, where only some poses are still in play
-    // (`candidates`: per pose of the angle, in outcome order; null: all), the rows of the smallest
-    // band that holds every such pose its pairs can reach. Runs that reach none are dropped. The
-    // map is then exact on the poses in play and nowhere else, which is all that is read of it
-    // (fidelity, for one, reaches few of them: most pairs of body runs meet far from any).
-    struct CutResult {
-        std::uint64_t pairs = 0;  // pairs of runs the kernel will visit
-        int longest = 0;
+    // Cuts one angle's pulled runs for a map test (sorted by key), cut to the columns that can reach
+    // the rows in play. Returns the longest run.
+    auto cut_pulled_runs = [&](const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows, std::vector<SliceRun>& out) {
+        if (rows[0] > rows[1] || test.runs.runs.empty()) return 0;
+        const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + rows[0], range.j_first + rows[1]);
+        return append_pulled_runs(test.moving_words, trig[std::size_t(angle)], root_a, root_b, angle_in_batch, clip, out);
     };
-    struct PulledCutter {  // scratch reused by one thread
-        std::vector<SliceRun> runs;
+    // Gives each of an angle's pulled runs (those of map pass `pass` of `passes`: its z modulo the
+    // pass count) the rows j it must be paired on: those where the fixed runs at its key lie and,
+    // where only some poses are in play (`open`: per pose of the angle, in outcome order; null:
+    // all), the rows of the smallest band holding every such pose its pairs can reach. Runs that
+    // reach none are dropped. The map is then exact on the poses in play, the only ones read of it
+    // (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in play).
+    // Returns the pairs of runs the kernel will visit.
+    struct PulledPruner {  // scratch reused by one thread
         std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
     };
     const int width = range.width(), height = range.height();
     if (width > 0xffff || height > 0xffff) fail("sweep", "a range of {} x {} offsets is more than the sweep handles (65,535 per side); narrow it", width, height);
-    auto cut_pulled_runs = [&](PulledCutter& cutter, const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows,
-                               const std::uint8_t* candidates, std::vector<PulledRun>& out) {
-        CutResult cut;
-        if (rows[0] > rows[1] || test.runs.runs.empty()) return cut;
-        const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + rows[0], range.j_first + rows[1]);
-        cutter.runs.clear();
-        cut.longest = append_pulled_runs(test.moving_words, trig[std::size_t(angle)], root_a, root_b, angle_in_batch, clip, cutter.runs);
+    auto prune_pulled_runs = [&](PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows, const std::vector<SliceRun>& runs,
+                                 int pass, int passes, const std::uint8_t* open, std::vector<PulledRun>& out) {
+        std::uint64_t pairs = 0;
+        if (rows[0] > rows[1] || runs.empty()) return pairs;
         const std::size_t stride = std::size_t(width) + 1;
-        if (candidates) {
-            cutter.prefix.assign(stride * (std::size_t(height) + 1), 0u);
+        if (open) {
+            pruner.prefix.assign(stride * (std::size_t(height) + 1), 0u);
             for (int j = 0; j < height; ++j) {
                 std::uint32_t row_count = 0;
                 for (int i = 0; i < width; ++i) {
-                    row_count += candidates[std::size_t(j) * std::size_t(width) + std::size_t(i)];
-                    cutter.prefix[(std::size_t(j) + 1) * stride + std::size_t(i) + 1] = cutter.prefix[std::size_t(j) * stride + std::size_t(i) + 1] + row_count;
+                    row_count += open[std::size_t(j) * std::size_t(width) + std::size_t(i)];
+                    pruner.prefix[(std::size_t(j) + 1) * stride + std::size_t(i) + 1] = pruner.prefix[std::size_t(j) * stride + std::size_t(i) + 1] + row_count;
                 }
             }
         }
         // Poses in play in columns i0..i1 and rows j0..j1.
         auto in_play = [&](int i0, int i1, int j0, int j1) {
-            const auto at = [&](int j, int i) { return cutter.prefix[std::size_t(j) * stride + std::size_t(i)]; };
+            const auto at = [&](int j, int i) { return pruner.prefix[std::size_t(j) * stride + std::size_t(i)]; };
             return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
         };
         const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
         const std::int32_t x_base = std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last;
-        for (const SliceRun& run : cutter.runs) {
+        for (const SliceRun& run : runs) {
+            if ((run.key % test.runs.zbits) % passes != pass) continue;
             const std::int32_t fixed_key = run.key % keys_per_angle;
             const auto& box = test.key_boxes[std::size_t(fixed_key)];
             if (box[0] > box[1]) continue;
             // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
             int j0 = std::max(rows[0], box[2] - run.y - range.j_first), j1 = std::min(rows[1], box[3] - run.y - range.j_first);
             if (j0 > j1) continue;
-            if (candidates) {
+            if (open) {
                 const int i0 = std::max(0, box[0] - run.x_last - range.i_first), i1 = std::min(width - 1, box[1] - run.x_first - range.i_first);
                 if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
                 // The first and last rows with a pose in play (counts grow monotonically with the band).
@@ -523,86 +521,111 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
             const auto from = std::lower_bound(key_begin, key_end, run.y + range.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
             const auto to = std::upper_bound(from, key_end, run.y + range.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
-            cut.pairs += std::uint64_t(to - from);
+            pairs += std::uint64_t(to - from);
             out.push_back({run.y, std::uint32_t(run.x_first - x_base) | std::uint32_t(run.x_last - x_base) << 16, run.key,
                            std::uint32_t(j0) | std::uint32_t(j1) << 16});
         }
-        return cut;
+        return pairs;
     };
 
     // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
     // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
     // batch and, where `candidates` is given (per pose of the batch), exactly only on those poses.
+    // With candidates the map goes in passes over the z slices: a pose that a pass decides (an
+    // overlap found) leaves play, so later passes skip the runs that reach only decided poses.
     std::unique_ptr<Buffer> pulled, map_words;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* candidates) {
-        // The host cuts each angle's runs on all cores while the device waits: each angle's runs come
-        // sorted by key and keys grow with the angle, so joining them in angle order sorts the batch.
-        // Neighbouring invocations with the same key walk the same fixed runs: uniform loops and
-        // loads across a subgroup.
         const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width;
         if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
-        std::vector<std::vector<PulledRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
-        std::vector<CutResult> cut_of(static_cast<std::size_t>(batch_angles));
-        std::exception_ptr failure;  // an exception must not leave the parallel loop: kept, rethrown after it
-#pragma omp parallel
-        {
-            PulledCutter cutter;
-#pragma omp for schedule(dynamic)
+        const int maps = test.maps_per_angle();
+        const int passes = candidates && test.want != Want::EveryFrame ? std::max(1, options_.map_passes) : 1;
+        std::vector<std::uint8_t> open;  // candidates not decided yet
+        if (candidates) open = *candidates;
+        // Runs on all cores while the device waits: one angle at a time per core. An exception
+        // must not leave a parallel loop: kept, rethrown after it.
+        std::exception_ptr failure;
+        auto for_each_angle = [&](const auto& work) {
+#pragma omp parallel for schedule(dynamic)
             for (int a = 0; a < batch_angles; ++a) {
                 try {
-                    cut_of[std::size_t(a)] = cut_pulled_runs(cutter, test, angle_first + a, a, rows[std::size_t(a)],
-                                                             candidates ? candidates->data() + std::size_t(a) * per_angle : nullptr,
-                                                             angle_runs_of[std::size_t(a)]);
+                    work(a);
                 } catch (...) {
 #pragma omp critical(amhv_pulled_runs_failure)
                     if (!failure) failure = std::current_exception();
                 }
             }
-        }
-        if (failure) std::rethrow_exception(failure);
-        std::vector<PulledRun> runs;
-        std::size_t total_runs = 0;
-        int longest = 0;
-        for (int a = 0; a < batch_angles; ++a) {
-            total_runs += angle_runs_of[std::size_t(a)].size();
-            longest = std::max(longest, cut_of[std::size_t(a)].longest);
-            stats_.run_pairs_per_stage[std::size_t(stage)] += cut_of[std::size_t(a)].pairs;
-        }
-        runs.reserve(total_runs);
-        for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
-        stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
-        ++stats_.maps_per_stage[std::size_t(stage)];
-        const int maps = test.maps_per_angle();
+            if (failure) std::rethrow_exception(failure);
+        };
+        std::vector<std::vector<SliceRun>> slice_runs_of(static_cast<std::size_t>(batch_angles));
+        std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
+        for_each_angle([&](int a) {
+            longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], slice_runs_of[std::size_t(a)]);
+        });
+        const int longest = *std::max_element(longest_of.begin(), longest_of.end());
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
         ensure_host_capacity(context_, map_words, map_bytes);
         sequence.fill(*map_words, map_bytes, 0u);
         // The clear must land before the runs OR their intervals in.
         sequence.barrier();
-        std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
-        if (!runs.empty() && !test.runs.runs.empty()) {
-            // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
-            const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
-            if (search + per_run > options_.loop_budget)
-                fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
-            const int runs_per_chunk = int((options_.loop_budget - search) / per_run);
-            const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
-            const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
-            if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
-                fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-            ensure_host_capacity(context_, pulled, runs.size() * sizeof(PulledRun));
-            std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(PulledRun));
-            set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get()}));
-            const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
-                                   range.i_first, range.j_first, range.width(), range.height(), row_words,
-                                   test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
-                                   std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last};
-            stats_.work_items += items;
-            sequence.dispatch(map_, *set, params, std::uint32_t(items));
+        ++stats_.maps_per_stage[std::size_t(stage)];
+        for (int pass = 0; pass < passes; ++pass) {
+            // Each angle's runs come sorted by key and keys grow with the angle, so joining them in
+            // angle order sorts the batch: neighbouring invocations with the same key walk the same
+            // fixed runs (uniform loops and loads across a subgroup).
+            std::vector<std::vector<PulledRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
+            std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
+            for_each_angle([&](int a) {
+                thread_local PulledPruner pruner;
+                pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, rows[std::size_t(a)], slice_runs_of[std::size_t(a)], pass, passes,
+                                                             candidates ? open.data() + std::size_t(a) * per_angle : nullptr, angle_runs_of[std::size_t(a)]);
+            });
+            std::vector<PulledRun> runs;
+            std::size_t total_runs = 0;
+            for (int a = 0; a < batch_angles; ++a) {
+                total_runs += angle_runs_of[std::size_t(a)].size();
+                stats_.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
+            }
+            runs.reserve(total_runs);
+            for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
+            stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
+            std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
+            if (!runs.empty()) {
+                // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
+                const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
+                if (search + per_run > options_.loop_budget)
+                    fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
+                const int runs_per_chunk = int((options_.loop_budget - search) / per_run);
+                const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
+                const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
+                if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
+                    fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
+                ensure_host_capacity(context_, pulled, runs.size() * sizeof(PulledRun));
+                std::memcpy(pulled->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(PulledRun));
+                set.emplace(map_.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled.get(), map_words.get()}));
+                const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
+                                       range.i_first, range.j_first, range.width(), range.height(), row_words,
+                                       test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
+                                       std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last};
+                stats_.work_items += items;
+                sequence.dispatch(map_, *set, params, std::uint32_t(items));
+            }
+            // The host reads the maps after the fence.
+            sequence.barrier_to_host();
+            sequence.submit_and_wait();
+            ++stats_.submits;
+            if (pass + 1 < passes) {
+                // Poses with an overlap found are decided (one map per angle here).
+                const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
+                for (std::size_t q = 0; q < open.size(); ++q) {
+                    if (!open[q]) continue;
+                    const std::size_t a = q / per_angle, rest = q % per_angle, j = rest / std::size_t(width), i = rest % std::size_t(width);
+                    const std::size_t row = a * std::size_t(range.height()) + j;
+                    if ((words[row * std::size_t(row_words) + (i >> 5)] >> (i & 31)) & 1u) open[q] = 0;
+                }
+                // The next pass's writes must follow the host's reads of this one (the fence did it)
+                // and the next batch of commands starts after the wait.
+            }
         }
-        // The host reads the maps after the fence.
-        sequence.barrier_to_host();
-        sequence.submit_and_wait();
-        ++stats_.submits;
         const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
         std::vector<std::uint8_t> meets(per_angle * std::uint64_t(batch_angles));
         std::size_t p = 0;
@@ -700,11 +723,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         for (int a = batch_angles - 1; a >= 0; --a)
             if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
         std::uint64_t pairs = 0;
-        PulledCutter cutter;
+        PulledPruner pruner;
         for (const MapTest& test : optional_maps[std::size_t(stage)]) {
-            std::vector<PulledRun> runs;
-            pairs += cut_pulled_runs(cutter, test, angle_first + sample, 0, rows[std::size_t(sample)],
-                                     candidates.data() + std::size_t(sample) * per_angle, runs).pairs;
+            std::vector<SliceRun> runs;
+            std::vector<PulledRun> pruned;
+            cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], runs);
+            pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, 0, 1, candidates.data() + std::size_t(sample) * per_angle, pruned);
         }
         const double pose_cost = double(pose_count) * options_.pose_test_pairs;
         return pose_cost > double(pairs) * double(angles_in_play);

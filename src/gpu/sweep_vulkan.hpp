@@ -33,6 +33,9 @@ struct SweeperOptions {
     double pose_test_pairs = 8000;
     // Bytes of overlap maps one batch of angles may hold.
     std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
+    // Passes over the z slices of an overlap map computed on some poses only: poses decided by a
+    // pass leave play and later passes skip what reaches only them (1: one pass).
+    int map_passes = 4;
 };
 
 struct SweepStats {
