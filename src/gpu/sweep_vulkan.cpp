@@ -474,12 +474,18 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         if (rows[0] > rows[1] || runs.empty()) return pairs;
         const std::size_t stride = std::size_t(width) + 1;
         if (open) {
-            pruner.prefix.assign(stride * (std::size_t(height) + 1), 0u);
-            for (int j = 0; j < height; ++j) {
+            // Only the rows in play are ever queried: prefix rows rows[0] .. rows[1] + 1.
+            pruner.prefix.resize(stride * (std::size_t(height) + 1));
+            std::fill_n(pruner.prefix.begin() + std::ptrdiff_t(std::size_t(rows[0]) * stride), stride, 0u);
+            for (int j = rows[0]; j <= rows[1]; ++j) {
+                const std::uint8_t* row_open = open + std::size_t(j) * std::size_t(width);
+                const std::uint32_t* above = pruner.prefix.data() + std::size_t(j) * stride;
+                std::uint32_t* below = pruner.prefix.data() + (std::size_t(j) + 1) * stride;
                 std::uint32_t row_count = 0;
+                below[0] = 0;
                 for (int i = 0; i < width; ++i) {
-                    row_count += open[std::size_t(j) * std::size_t(width) + std::size_t(i)];
-                    pruner.prefix[(std::size_t(j) + 1) * stride + std::size_t(i) + 1] = pruner.prefix[std::size_t(j) * stride + std::size_t(i) + 1] + row_count;
+                    row_count += row_open[i];
+                    below[i + 1] = above[i + 1] + row_count;
                 }
             }
         }
@@ -541,6 +547,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const int passes = candidates && test.want != Want::EveryFrame ? std::max(1, options_.map_passes) : 1;
         std::vector<std::uint8_t> open;  // candidates not decided yet
         if (candidates) open = *candidates;
+        Rows open_rows = rows;  // per angle: the rows j with poses in play
         // Runs on all cores while the device waits: one angle at a time per core. An exception
         // must not leave a parallel loop: kept, rethrown after it.
         std::exception_ptr failure;
@@ -576,7 +583,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
             for_each_angle([&](int a) {
                 thread_local PulledPruner pruner;
-                pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, rows[std::size_t(a)], slice_runs_of[std::size_t(a)], pass, passes,
+                pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)], pass, passes,
                                                              candidates ? open.data() + std::size_t(a) * per_angle : nullptr, angle_runs_of[std::size_t(a)]);
             });
             std::vector<PulledRun> runs;
@@ -614,36 +621,40 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             sequence.submit_and_wait();
             ++stats_.submits;
             if (pass + 1 < passes) {
-                // Poses with an overlap found are decided (one map per angle here).
+                // Poses with an overlap found are decided (one map per angle here); the rows in play
+                // shrink to those with poses still open.
                 const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
-                for (std::size_t q = 0; q < open.size(); ++q) {
-                    if (!open[q]) continue;
-                    const std::size_t a = q / per_angle, rest = q % per_angle, j = rest / std::size_t(width), i = rest % std::size_t(width);
-                    const std::size_t row = a * std::size_t(range.height()) + j;
-                    if ((words[row * std::size_t(row_words) + (i >> 5)] >> (i & 31)) & 1u) open[q] = 0;
+                for (int a = 0; a < batch_angles; ++a) {
+                    auto& band = open_rows[std::size_t(a)];
+                    std::array<std::int32_t, 2> still{height, -1};
+                    for (int j = band[0]; j <= band[1]; ++j) {
+                        std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle + std::size_t(j) * std::size_t(width);
+                        const std::uint32_t* row = words + (std::size_t(a) * std::size_t(height) + std::size_t(j)) * std::size_t(row_words);
+                        bool any = false;
+                        for (int i = 0; i < width; ++i) {
+                            row_open[i] &= std::uint8_t(~(row[i >> 5] >> (i & 31)) & 1u);
+                            any |= row_open[i] != 0;
+                        }
+                        if (any) still = {std::min(still[0], j), j};
+                    }
+                    band = still;
                 }
-                // The next pass's writes must follow the host's reads of this one (the fence did it)
-                // and the next batch of commands starts after the wait.
             }
         }
         const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
         std::vector<std::uint8_t> meets(per_angle * std::uint64_t(batch_angles));
-        std::size_t p = 0;
+        const std::uint8_t when_set = test.want == Want::NoOverlap ? 0 : 1;
         for (int a = 0; a < batch_angles; ++a)
-            for (int j = 0; j < range.height(); ++j)
-                for (int i = 0; i < range.width(); ++i, ++p) {
-                    auto bit = [&](int map) {
-                        const std::size_t row = (std::size_t(a) * std::size_t(maps) + std::size_t(map)) * std::size_t(range.height()) + std::size_t(j);
-                        return (words[row * std::size_t(row_words) + std::size_t(i >> 5)] >> (i & 31)) & 1u;
-                    };
-                    if (test.want == Want::EveryFrame) {
-                        bool all = true;
-                        for (int m = 0; m < maps && all; ++m) all = bit(m) != 0;
-                        meets[p] = all;
-                    } else {
-                        meets[p] = (bit(0) != 0) == (test.want == Want::Overlap);
-                    }
+            for (int j = 0; j < height; ++j) {
+                std::uint8_t* out = meets.data() + std::size_t(a) * per_angle + std::size_t(j) * std::size_t(width);
+                // EveryFrame: set in every slot's map; otherwise the one map's bit says it.
+                const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height) + std::size_t(j)) * std::size_t(row_words);
+                for (int w = 0; w < row_words; ++w) {
+                    std::uint32_t bits = row[w];
+                    for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height) * std::size_t(row_words) + std::size_t(w)];
+                    for (int i = w * 32; i < std::min(width, w * 32 + 32); ++i) out[i] = ((bits >> (i & 31)) & 1u) ? when_set : std::uint8_t(1 - when_set);
                 }
+            }
         return meets;
     };
 
