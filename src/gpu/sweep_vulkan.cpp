@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "sweep/column_volume.hpp"
 #include "sweep/slice_runs.hpp"
 #include "sweep_map.spv.h"
@@ -456,8 +457,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + rows[0], range.j_first + rows[1]);
         return append_pulled_runs(test.moving_words, trig[std::size_t(angle)], root_a, root_b, angle_in_batch, clip, out);
     };
-    // Gives each of an angle's pulled runs (those of map pass `pass` of `passes`: its z modulo the
-    // pass count) the rows j it must be paired on: those where the fixed runs at its key lie and,
+    // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those where the fixed runs at its key lie and,
     // where only some poses are in play (`open`: per pose of the angle, in outcome order; null:
     // all), the rows of the smallest band holding every such pose its pairs can reach. Runs that
     // reach none are dropped. The map is then exact on the poses in play, the only ones read of it
@@ -469,7 +469,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     const int width = range.width(), height = range.height();
     if (width > 0xffff || height > 0xffff) fail("sweep", "a range of {} x {} offsets is more than the sweep handles (65,535 per side); narrow it", width, height);
     auto prune_pulled_runs = [&](PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows, const std::vector<SliceRun>& runs,
-                                 int pass, int passes, const std::uint8_t* open, std::vector<PulledRun>& out) {
+                                 const std::uint8_t* open, std::vector<PulledRun>& out) {
         std::uint64_t pairs = 0;
         if (rows[0] > rows[1] || runs.empty()) return pairs;
         const std::size_t stride = std::size_t(width) + 1;
@@ -497,7 +497,6 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
         const std::int32_t x_base = std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last;
         for (const SliceRun& run : runs) {
-            if ((run.key % test.runs.zbits) % passes != pass) continue;
             const std::int32_t fixed_key = run.key % keys_per_angle;
             const auto& box = test.key_boxes[std::size_t(fixed_key)];
             if (box[0] > box[1]) continue;
@@ -548,25 +547,21 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<std::uint8_t> open;  // candidates not decided yet
         if (candidates) open = *candidates;
         Rows open_rows = rows;  // per angle: the rows j with poses in play
-        // Runs on all cores while the device waits: one angle at a time per core. An exception
-        // must not leave a parallel loop: kept, rethrown after it.
-        std::exception_ptr failure;
+        // Host work per angle, on all cores while the device waits.
         auto for_each_angle = [&](const auto& work) {
-#pragma omp parallel for schedule(dynamic)
-            for (int a = 0; a < batch_angles; ++a) {
-                try {
-                    work(a);
-                } catch (...) {
-#pragma omp critical(amhv_pulled_runs_failure)
-                    if (!failure) failure = std::current_exception();
-                }
-            }
-            if (failure) std::rethrow_exception(failure);
+            parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); });
         };
-        std::vector<std::vector<SliceRun>> slice_runs_of(static_cast<std::size_t>(batch_angles));
+        // Per angle and pass: the runs whose z modulo the pass count is the pass (in key order).
+        std::vector<std::vector<std::vector<SliceRun>>> slice_runs_of(static_cast<std::size_t>(batch_angles));
         std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
         for_each_angle([&](int a) {
-            longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], slice_runs_of[std::size_t(a)]);
+            auto& by_pass = slice_runs_of[std::size_t(a)];
+            by_pass.resize(std::size_t(passes));
+            longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], by_pass[0]);
+            if (passes == 1) return;
+            std::vector<SliceRun> all = std::move(by_pass[0]);
+            by_pass[0].clear();
+            for (const SliceRun& run : all) by_pass[std::size_t((run.key % test.runs.zbits) % passes)].push_back(run);
         });
         const int longest = *std::max_element(longest_of.begin(), longest_of.end());
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
@@ -583,7 +578,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
             for_each_angle([&](int a) {
                 thread_local PulledPruner pruner;
-                pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)], pass, passes,
+                pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)][std::size_t(pass)],
                                                              candidates ? open.data() + std::size_t(a) * per_angle : nullptr, angle_runs_of[std::size_t(a)]);
             });
             std::vector<PulledRun> runs;
@@ -739,7 +734,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             std::vector<SliceRun> runs;
             std::vector<PulledRun> pruned;
             cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], runs);
-            pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, 0, 1, candidates.data() + std::size_t(sample) * per_angle, pruned);
+            pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, candidates.data() + std::size_t(sample) * per_angle, pruned);
         }
         const double pose_cost = double(pose_count) * options_.pose_test_pairs;
         return pose_cost > double(pairs) * double(angles_in_play);

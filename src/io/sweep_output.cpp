@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 
 namespace amhv {
 
@@ -68,8 +69,7 @@ void write_solutions_csv(const std::filesystem::path& path, const std::vector<So
     std::vector<std::string> text(kInFlight);
     for (std::size_t first = 0; first < chunks; first += kInFlight) {
         const std::size_t count = std::min(kInFlight, chunks - first);
-#pragma omp parallel for schedule(dynamic)
-        for (std::size_t c = 0; c < count; ++c) {  // formatting into memory cannot throw but for bad_alloc
+        parallel_for(count, [&](std::size_t c) {
             auto& buffer = text[c];
             const std::size_t begin = (first + c) * kChunk, end = std::min(solutions.size(), begin + kChunk);
             buffer.clear();
@@ -86,7 +86,7 @@ void write_solutions_csv(const std::filesystem::path& path, const std::vector<So
                 }
                 buffer.append(line, std::size_t(at - line));
             }
-        }
+        });
         for (std::size_t c = 0; c < count; ++c) out.write(text[c].data(), std::streamsize(text[c].size()));
     }
     if (!out) fail(path.string(), "write failed");
@@ -140,21 +140,11 @@ int write_feasibility_maps(const std::filesystem::path& folder, const SweepProbl
         for (int c = 0; c < 3; ++c) linear[std::size_t(o)][std::size_t(c)] = std::pow(rgb[std::size_t(c)] / 255.0f, 2.2f);
     }
     // One file per angle, written on all cores (each file alone is byte-identical to a serial write).
-    std::exception_ptr failure;
-#pragma omp parallel
-    {
-        std::vector<float> planes(std::size_t(4) * width * height);
-#pragma omp for schedule(dynamic)
-        for (int k = 0; k < r.angles; ++k) {
-            try {
-                write_feasibility_exr(folder, problem, result, k, planes, linear);
-            } catch (...) {
-#pragma omp critical(amhv_feasibility_failure)
-                if (!failure) failure = std::current_exception();
-            }
-        }
-    }
-    if (failure) std::rethrow_exception(failure);
+    parallel_for(std::size_t(r.angles), [&](std::size_t k) {
+        thread_local std::vector<float> planes;
+        planes.resize(std::size_t(4) * width * height);
+        write_feasibility_exr(folder, problem, result, int(k), planes, linear);
+    });
     const int files = r.angles;
     // Montage: angles tiled in rows, each tile at most 160 px (nearest sampling), 2 px gaps.
     const int scale_down = std::max(1, (std::max(width, height) + 159) / 160);

@@ -1,0 +1,17 @@
+#pragma once
+// Host work split over all cores, for the loops the host runs while the device waits (cutting
+// slice runs, formatting output). Threads are started per call and joined before it returns, so
+// none spins or sleeps on the cores afterwards: on a CPU Vulkan driver (lavapipe) the device's
+// own threads need them. (OpenMP's idle workers spin after each loop and slowed the sweep's
+// dispatches by up to half.)
+#include <cstddef>
+#include <functional>
+
+namespace amhv {
+
+// Calls work(i) for every i in [0, count), in any order, on up to `threads` threads (0: one per
+// core); the calling thread takes part. Items are handed out one at a time, so uneven items
+// balance. The first exception any call throws is rethrown here, after every thread has stopped.
+void parallel_for(std::size_t count, const std::function<void(std::size_t)>& work, unsigned threads = 0);
+
+}  // namespace amhv
