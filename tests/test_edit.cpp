@@ -224,6 +224,21 @@ TEST(Edit, FromSweepOfAnotherSceneIsRefused) {
     run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "nothing").string() + "' --out '" + (root / "e").string() + "'");
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.output.find("nothing/result.json: cannot open"), std::string::npos) << run.output;
+    // A solution row that is not six numbers is refused with its line.
+    ASSERT_EQ(test::run_amhv("sweep " + fixture.quoted() + " --no-maps --out '" + (root / "own").string() + "'").exit_code, 0);
+    const fs::path csv = root / "own/segment_1/solutions.csv";
+    std::string rows = read_text(csv);
+    const std::size_t second = rows.find('\n') + 1;
+    ASSERT_NE(rows.find('\n', second), std::string::npos) << "the group needs a solution for this test";
+    for (const char* bad : {"0.1,0.2,4.0,1.0,2.0", "0.1,0.2,4.0,1.0,2.0,3.0,9", "0.1;0.2,4.0,1.0,2.0,3.0", "0.1,x,4.0,1.0,2.0,3.0"}) {
+        std::string broken = rows;
+        broken.replace(second, rows.find('\n', second) - second, bad);
+        std::ofstream(csv, std::ios::binary) << broken;
+        run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "own").string() + "' --out '" + (root / "e").string() + "'");
+        EXPECT_NE(run.exit_code, 0) << bad;
+        EXPECT_NE(run.output.find("solutions.csv:2: expected six numbers"), std::string::npos) << bad << "\n" << run.output;
+        EXPECT_FALSE(fs::exists(root / "e"));
+    }
 }
 
 TEST(Edit, AnEmptyGroupStopsTheEditUnlessAllowed) {

@@ -1,5 +1,6 @@
 #include "cli/sweep_stage.hpp"
 
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -232,13 +233,22 @@ SweepStage read_sweep_stage(const fs::path& dir, const Scene& scene) {
                     if (line.rfind("x,y,theta_deg", 0) != 0) fail(csv.string() + ":1", "expected the header x,y,theta_deg,L,thetaA_deg,thetaB_deg");
                     continue;
                 }
+                if (!line.empty() && line.back() == '\r') line.pop_back();
                 if (line.empty()) continue;
-                std::replace(line.begin(), line.end(), ',', ' ');
-                std::istringstream fields(line);
+                // Six comma-separated numbers (std::from_chars: exact, and far faster than streams
+                // on groups of millions of rows).
                 Solution sol;
-                if (!(fields >> sol.x >> sol.y >> sol.theta_deg >> sol.distance >> sol.theta_a_deg >> sol.theta_b_deg) ||
-                    !std::isfinite(sol.x + sol.y + sol.theta_deg))
-                    fail(fmt::format("{}:{}", csv.string(), number), "expected six numbers");
+                double* fields[] = {&sol.x, &sol.y, &sol.theta_deg, &sol.distance, &sol.theta_a_deg, &sol.theta_b_deg};
+                const char* at = line.data();
+                const char* end = line.data() + line.size();
+                bool ok = true;
+                for (int f = 0; f < 6 && ok; ++f) {
+                    while (at < end && *at == ' ') ++at;
+                    const auto [next, error] = std::from_chars(at, end, *fields[f]);
+                    ok = error == std::errc() && (f < 5 ? next < end && *next == ',' : next == end);
+                    at = next + 1;
+                }
+                if (!ok || !std::isfinite(sol.x + sol.y + sol.theta_deg)) fail(fmt::format("{}:{}", csv.string(), number), "expected six numbers");
                 sol.i = int(std::lround(sol.x / scene.sampling.voxel));
                 sol.j = int(std::lround(sol.y / scene.sampling.voxel));
                 sol.k = int(((std::lround(sol.theta_deg / scene.sampling.angle_step_deg) % angles) + angles) % angles);
