@@ -94,6 +94,10 @@ struct MapTest {
     FixedRuns runs;
     // Per fixed key: the box of its runs (x_first, x_last, y_first, y_last; global; empty: first > last).
     std::vector<std::array<std::int32_t, 4>> key_boxes;
+    // Per fixed key and row of its box: the row's first x_first and last x_last (empty row: first >
+    // last), from row_hull_first[key] on.
+    std::vector<std::array<std::int32_t, 2>> row_hulls;
+    std::vector<std::uint32_t> row_hull_first;
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
@@ -178,7 +182,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<int> every_frame(static_cast<std::size_t>(frames));
         for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
         auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
-            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, {}, nullptr, nullptr};
+            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, {}, {}, {}, nullptr, nullptr};
         };
         auto map_of = [&](const OverlapTest& test) {
             std::vector<int> slots{0};
@@ -224,6 +228,20 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                                test.runs.runs[std::size_t(first + count - 1)].y};
                         for (std::int32_t r = first; r < first + count; ++r)
                             box[0] = std::min(box[0], test.runs.runs[std::size_t(r)].x_first), box[1] = std::max(box[1], test.runs.runs[std::size_t(r)].x_last);
+                    }
+                    test.row_hull_first.assign(test.runs.by_key.size(), 0);
+                    for (std::size_t k = 0; k < test.runs.by_key.size(); ++k) {
+                        test.row_hull_first[k] = std::uint32_t(test.row_hulls.size());
+                        const auto& box = test.key_boxes[k];
+                        if (box[0] > box[1]) continue;
+                        test.row_hulls.resize(test.row_hulls.size() + std::size_t(box[3] - box[2] + 1), {1, 0});
+                        const auto [first, count] = test.runs.by_key[k];
+                        for (std::int32_t r = first; r < first + count; ++r) {
+                            const SliceRun& run = test.runs.runs[std::size_t(r)];
+                            auto& hull = test.row_hulls[test.row_hull_first[k] + std::size_t(run.y - box[2])];
+                            hull = hull[0] > hull[1] ? std::array<std::int32_t, 2>{run.x_first, run.x_last}
+                                                     : std::array<std::int32_t, 2>{std::min(hull[0], run.x_first), std::max(hull[1], run.x_last)};
+                        }
                     }
                     // Packed (y, x_first | x_last << 16) relative to the volume's origin.
                     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
@@ -457,11 +475,13 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         const auto clip = pulled_clip(*test.fixed, range.i_first, range.i_last, range.j_first + rows[0], range.j_first + rows[1]);
         return append_pulled_runs(test.moving_words, trig[std::size_t(angle)], root_a, root_b, angle_in_batch, clip, out);
     };
-    // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those where the fixed runs at its key lie and,
-    // where only some poses are in play (`open`: per pose of the angle, in outcome order; null:
-    // all), the rows of the smallest band holding every such pose its pairs can reach. Runs that
-    // reach none are dropped. The map is then exact on the poses in play, the only ones read of it
-    // (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in play).
+    // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
+    // where the fixed runs at its key lie and, where only some poses are in play (`open`: per pose
+    // of the angle, in outcome order; null: all), the band from the first to the last row whose
+    // fixed runs' hull, moved by the run, holds a pose in play (a pair can only set bits inside it).
+    // Runs that reach none are dropped. The map is then exact on the poses in play, the only ones
+    // read of it (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in
+    // play). A box test (2D prefix sums of the poses in play) first drops most runs cheaply.
     // Returns the pairs of runs the kernel will visit.
     struct PulledPruner {  // scratch reused by one thread
         std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
@@ -506,21 +526,19 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             if (open) {
                 const int i0 = std::max(0, box[0] - run.x_last - range.i_first), i1 = std::min(width - 1, box[1] - run.x_first - range.i_first);
                 if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
-                // The first and last rows with a pose in play (counts grow monotonically with the band).
-                int lo = j0, hi = j1;
-                while (lo < hi) {
-                    const int mid = lo + (hi - lo) / 2;
-                    if (in_play(i0, i1, j0, mid) > 0) hi = mid;
-                    else lo = mid + 1;
+                // The first and last rows where a pose in play lies within reach of the fixed row
+                // at the other end: its runs' hull, moved by this run.
+                const auto* hulls = test.row_hulls.data() + test.row_hull_first[std::size_t(fixed_key)];
+                int reach_first = j1 + 1, reach_last = j0 - 1;
+                for (int j = j0; j <= j1; ++j) {
+                    const auto& hull = hulls[run.y + range.j_first + j - box[2]];
+                    if (hull[0] > hull[1]) continue;
+                    const int h0 = std::max(0, hull[0] - run.x_last - range.i_first), h1 = std::min(width - 1, hull[1] - run.x_first - range.i_first);
+                    if (h0 > h1 || in_play(h0, h1, j, j) == 0) continue;
+                    reach_first = std::min(reach_first, j), reach_last = j;
                 }
-                const int first = lo;
-                lo = first, hi = j1;
-                while (lo < hi) {
-                    const int mid = lo + (hi - lo + 1) / 2;
-                    if (in_play(i0, i1, mid, j1) > 0) lo = mid;
-                    else hi = mid - 1;
-                }
-                j0 = first, j1 = lo;
+                if (reach_first > reach_last) continue;
+                j0 = reach_first, j1 = reach_last;
             }
             const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
             const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
@@ -536,15 +554,18 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
     // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
     // batch and, where `candidates` is given (per pose of the batch), exactly only on those poses.
-    // With candidates the map goes in passes over the z slices: a pose that a pass decides (an
-    // overlap found) leaves play, so later passes skip the runs that reach only decided poses.
+    // The map goes in passes over the z slices: a pose that a pass decides (an overlap found) leaves
+    // play, so later passes skip the runs that reach only decided poses. For contact a quarter of
+    // the slices finds nearly every overlap, and the rest of the runs reach almost nothing new.
     std::unique_ptr<Buffer> pulled, map_words;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* candidates) {
         const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width;
         if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
         const int maps = test.maps_per_angle();
-        const int passes = candidates && test.want != Want::EveryFrame ? std::max(1, options_.map_passes) : 1;
-        std::vector<std::uint8_t> open;  // candidates not decided yet
+        // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
+        const int passes = test.want != Want::EveryFrame ? std::max(1, options_.map_passes) : 1;
+        // The poses in play not decided yet; without candidates, every pose once the first pass is in.
+        std::vector<std::uint8_t> open;
         if (candidates) open = *candidates;
         Rows open_rows = rows;  // per angle: the rows j with poses in play
         // Host work per angle, on all cores while the device waits.
@@ -579,7 +600,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             for_each_angle([&](int a) {
                 thread_local PulledPruner pruner;
                 pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)][std::size_t(pass)],
-                                                             candidates ? open.data() + std::size_t(a) * per_angle : nullptr, angle_runs_of[std::size_t(a)]);
+                                                             open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle, angle_runs_of[std::size_t(a)]);
             });
             std::vector<PulledRun> runs;
             std::size_t total_runs = 0;
@@ -619,6 +640,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 // Poses with an overlap found are decided (one map per angle here); the rows in play
                 // shrink to those with poses still open.
                 const std::uint32_t* words = map_words->mapped<std::uint32_t>().data();
+                if (open.empty()) open.assign(per_angle * std::size_t(batch_angles), 1);
                 for (int a = 0; a < batch_angles; ++a) {
                     auto& band = open_rows[std::size_t(a)];
                     std::array<std::int32_t, 2> still{height, -1};

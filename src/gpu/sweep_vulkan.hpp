@@ -33,8 +33,9 @@ struct SweeperOptions {
     double pose_test_pairs = 8000;
     // Bytes of overlap maps one batch of angles may hold.
     std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
-    // Passes over the z slices of an overlap map computed on some poses only: poses decided by a
-    // pass leave play and later passes skip what reaches only them (1: one pass).
+    // Passes over the z slices of an overlap map (slice z goes in pass z mod map_passes): poses
+    // decided by a pass leave play and later passes skip the runs that reach only decided poses
+    // (1: one pass).
     int map_passes = 4;
 };
 
