@@ -19,7 +19,8 @@ layout(std430, set = 0, binding = 0) buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Starts { uint bucket_start[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Ends { uint bucket_end[]; };  // the fill pass's cursors
 layout(std430, set = 0, binding = 3) readonly buffer ColumnKeys { uint column_keys[]; };
-layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };  // [z][y][x] of the slab
+// [y][x][z]: each column's flips lie together, so its walk below reads them in order.
+layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };
 layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };        // [z][y][x] of the slab
 
 layout(push_constant) uniform Params {
@@ -92,7 +93,7 @@ void main() {
             if (i + 1u < n && int(keys[start + i + 1u] >> 1) == layer) continue;
             if ((winding != 0) != inside) {
                 inside = !inside;
-                toggles[uint(layer) * params.columns + column] ^= bit;
+                toggles[column * uint(params.slab_layers) + uint(layer)] ^= bit;
                 first = min(first, layer);
                 last = max(last, layer);
             }
@@ -102,13 +103,13 @@ void main() {
     }
 
     uint word = 0u;
+    uint flip_base = column * uint(params.slab_layers);
     for (int z = first; z <= last; ++z) {
-        uint voxel = uint(z) * params.columns + column;
-        uint flips = toggles[voxel];
+        uint flips = toggles[flip_base + uint(z)];
         if (flips != 0u) {
             word ^= flips;
-            toggles[voxel] = 0u;
+            toggles[flip_base + uint(z)] = 0u;
         }
-        if (word != 0u) mask[voxel] |= word;
+        if (word != 0u) mask[uint(z) * params.columns + column] |= word;
     }
 }

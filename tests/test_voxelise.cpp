@@ -145,6 +145,29 @@ TEST(Voxelise, SplittingAndLargeTrianglesMatchReference) {
     }
 }
 
+// The voxeliser keeps its scratch buffers between calls. Calls on a large grid, a small one (the
+// buffers are larger than it needs, and hold the large call's leftovers) and the large one again
+// must each match the reference, as must a call with a different slab height.
+TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
+    std::vector<TriangleMesh> large, small;
+    for (int f = 0; f < 36; ++f) {
+        TriangleMesh frame = shapes::capsule({0.1 + 0.01 * f, 0.2, 0.1}, {0.6, 0.5 - 0.005 * f, 0.9}, 0.12, 12, 16);
+        frame.append(shapes::sphere({0.5, 0.2 + 0.01 * f, 0.4}, 0.2, 16, 24));
+        large.push_back(frame);
+        if (f < 7) small.push_back(shapes::sphere({0.1 * f, 0.0, 0.2}, 0.08 + 0.01 * f, 12, 16));
+    }
+    const auto large_input = prepare_voxelisation(sequence_of(large), 0.006);
+    const auto small_input = prepare_voxelisation(sequence_of(small), 0.004);
+    ReferenceVoxeliser reference;
+    gpu::VulkanVoxeliser vulkan(test::context());
+    for (const auto* input : {&large_input, &small_input, &large_input, &small_input}) {
+        const Both both{voxelise(*input, reference), voxelise(*input, vulkan), vulkan.last_plan()};
+        test::expect_no_validation_messages();
+        expect_identical(both);
+        EXPECT_GT(occupied(both.gpu), 1000u);
+    }
+}
+
 // Ten stacked slabs cross their shared columns 20 times per frame: more than the insertion sort
 // takes, so the column kernel's heap sort orders every bucket. 40 frames fill a whole word and
 // spill into a second one; the slabs thicken frame by frame so no two frames agree.

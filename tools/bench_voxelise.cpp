@@ -47,6 +47,7 @@ void report(benchmark::State& state, const VoxelisationInput& input, const std::
 void B1_voxelise_vulkan(benchmark::State& state) {
     auto input = prepare_voxelisation(human_sequence(), double(state.range(0)) / 1000.0);
     gpu::VulkanVoxeliser voxeliser(context());
+    voxelise(input, voxeliser);  // warm-up, untimed: first dispatches, page faults of the voxeliser's scratch
     for (auto _ : state) {
         Amhv volume = voxelise(input, voxeliser);
         benchmark::DoNotOptimize(volume.mask().data());

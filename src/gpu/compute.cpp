@@ -38,10 +38,18 @@ Buffer::Buffer(Context& context, vk::DeviceSize size, Memory memory)
     : size_(std::max<vk::DeviceSize>(size, 4)), buffer_(make_buffer(context, size_)), memory_(allocate(context, buffer_, memory)) {
     buffer_.bindMemory(*memory_, 0);
     if (memory == Memory::Host) mapped_ = memory_.mapMemory(0, size_);
+    kind_ = memory;
+}
+
+void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes, Buffer::Memory memory) {
+    if (!buffer || buffer->size() < bytes || buffer->memory() != memory) {
+        buffer.reset();  // the old memory goes back before the new is allocated
+        buffer = std::make_unique<Buffer>(context, std::max<vk::DeviceSize>(bytes, 4096), memory);
+    }
 }
 
 void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes) {
-    if (!buffer || buffer->size() < bytes) buffer = std::make_unique<Buffer>(context, std::max<vk::DeviceSize>(bytes, 4096), Buffer::Memory::Host);
+    ensure_capacity(context, buffer, bytes, Buffer::Memory::Host);
 }
 
 std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes) {

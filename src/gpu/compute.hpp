@@ -21,6 +21,7 @@ public:
 
     vk::Buffer handle() const { return *buffer_; }
     vk::DeviceSize size() const { return size_; }
+    Memory memory() const { return kind_; }
     // Host buffers only.
     template <typename T>
     std::span<T> mapped() {
@@ -32,9 +33,13 @@ private:
     vk::raii::Buffer buffer_;
     vk::raii::DeviceMemory memory_;
     void* mapped_ = nullptr;
+    Memory kind_;
 };
 
-// Grows a host buffer to at least `bytes` (never shrinks, so batches reuse it).
+// Grows a buffer to at least `bytes` of `memory` (never shrinks, so batches and calls reuse it;
+// its contents are not kept when it grows).
+void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes, Buffer::Memory memory);
+// The same for a host buffer.
 void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes);
 // A new host buffer holding a copy of `bytes` bytes at `data`.
 std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes);

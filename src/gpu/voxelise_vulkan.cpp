@@ -121,18 +121,34 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
 
     const std::uint64_t slab_bytes = layer_bytes * std::uint64_t(plan_.slab_layers);
     const std::uint64_t bucket_bytes = layer_bytes * std::uint64_t(plan_.frames_per_batch);
-    Buffer mask(context_, slab_bytes, Buffer::Memory::Host);
-    Buffer toggles(context_, slab_bytes, Buffer::Memory::Device);
-    Buffer column_keys(context_, layer_bytes, Buffer::Memory::Device);
-    Buffer bucket_count(context_, bucket_bytes, Buffer::Memory::Device);
-    Buffer bucket_start(context_, bucket_bytes, Buffer::Memory::Device);
-    Buffer bucket_cursor(context_, bucket_bytes, Buffer::Memory::Device);
-    Buffer keys(context_, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
-    Buffer keys_allocated(context_, 4, Buffer::Memory::Device);
-    Buffer overflow(context_, 4, Buffer::Memory::Host);
+    // The buffers stay with the voxeliser between calls (grown as needed, released when large):
+    // fresh memory costs page faults on every call, and the MHV and root stages make many.
+    Buffers& b = buffers_;
+    struct Release {  // after the call, buffers beyond kKeptBytes go back
+        Buffers& b;
+        ~Release() {
+            std::uint64_t total = 0;
+            for (auto* buffer : b.all()) total += *buffer ? (*buffer)->size() : 0;
+            if (total > kKeptBytes)
+                for (auto* buffer : b.all()) buffer->reset();
+        }
+    } release{b};
+    ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
+    ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.column_keys, layer_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.bucket_count, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.bucket_start, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.bucket_cursor, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.keys, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
+    ensure_capacity(context_, b.keys_allocated, 4, Buffer::Memory::Device);
+    ensure_capacity(context_, b.overflow, 4, Buffer::Memory::Host);
+    Buffer &mask = *b.mask, &toggles = *b.toggles, &column_keys = *b.column_keys, &bucket_count = *b.bucket_count;
+    Buffer &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys, &keys_allocated = *b.keys_allocated;
+    Buffer& overflow = *b.overflow;
     std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
     most_column_crossings = 0;
-    std::unique_ptr<Buffer> triangles, work_items;
+    std::unique_ptr<Buffer>& triangles = b.triangles;
+    std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
     // Cleared once: afterwards the passes reset every counter and flip word they consume.
     sequence.fill(bucket_count, bucket_bytes, 0u);

@@ -7,7 +7,9 @@
 //                        number switches between zero and non-zero, and runs an XOR up the column
 //                        over the flips: the occupancy words.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
+#include <array>
 #include <cstdint>
+#include <memory>
 
 #include "core/voxelise.hpp"
 #include "gpu/compute.hpp"
@@ -56,6 +58,16 @@ private:
     Kernel fill_;
     Kernel columns_;
     Plan plan_;
+    // Scratch kept between calls while it stays under kKeptBytes in all.
+    static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
+    struct Buffers {
+        std::unique_ptr<Buffer> mask, toggles, column_keys, bucket_count, bucket_start, bucket_cursor, keys, keys_allocated, overflow;
+        std::unique_ptr<Buffer> triangles, work_items;
+        std::array<std::unique_ptr<Buffer>*, 11> all() {
+            return {&mask, &toggles, &column_keys, &bucket_count, &bucket_start, &bucket_cursor, &keys, &keys_allocated, &overflow, &triangles, &work_items};
+        }
+    };
+    Buffers buffers_;
 };
 
 }  // namespace amhv::gpu
