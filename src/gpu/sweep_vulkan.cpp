@@ -62,7 +62,8 @@ static_assert(sizeof(GpuAngle) == 32);
 
 constexpr std::int32_t kModeAny = 0, kModePerFrame = 1;
 
-// A column volume uploaded once; its angle table (used when it is the moving side) on demand.
+// A column volume; uploaded when a pose-by-pose test first reads it (overlap maps read slice runs
+// instead), and its angle table (used when it is the moving side) on demand.
 struct GpuVolume {
     ColumnVolume columns;
     std::unique_ptr<Buffer> bits, rows, angles;
@@ -128,7 +129,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     const InteractionType type = problem.type;
     if (frames > kMaxFrameWords * 32) fail("key segment", "has {} normalised frames; the sweep handles at most {}", frames, kMaxFrameWords * 32);
 
-    // ---- column volumes, uploaded once ----
+    // ---- column volumes ----
     std::vector<const VoxelGrid*> grids{&A.whole.grid(), &B.whole.grid()};
     if (problem.visibility) grids.insert(grids.end(), {&A.view_cone.grid, &B.view_cone.grid});
     const ZFrame z = z_frame_covering(grids);
@@ -136,8 +137,6 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     auto add = [&](ColumnVolume columns) {
         auto v = std::make_unique<GpuVolume>();
         v->columns = std::move(columns);
-        v->bits = upload_to_host(context_, v->columns.bits.data(), v->columns.bits.size() * 4);
-        v->rows = upload_to_host(context_, v->columns.rows.data(), v->columns.rows.size() * 8);
         volumes.push_back(std::move(v));
         return volumes.back().get();
     };
@@ -257,24 +256,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 }
     }
 
-    // Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
-    // (dilated_columns). Pooled volumes are shared like the volumes they come from.
-    const int block = std::max(1, options_.block);
-    std::vector<std::vector<OverlapTest>> block_stages(4);
-    if (block > 1) {
-        std::map<const GpuVolume*, GpuVolume*> pooled;
-        for (std::size_t s = 0; s < stages.size(); ++s)
-            for (OverlapTest test : stages[s]) {
-                auto [it, added] = pooled.emplace(test.fixed, nullptr);
-                if (added) it->second = add(dilated_columns(test.fixed->columns, block));
-                test.fixed = it->second;
-                block_stages[s].push_back(test);
-            }
-    }
     auto for_each_test = [&](const auto& visit) {
-        for (const auto* all : {&stages, &block_stages})
-            for (const auto& stage : *all)
-                for (const OverlapTest& test : stage) visit(test);
+        for (const auto& stage : stages)
+            for (const OverlapTest& test : stage) visit(test);
     };
 
     // ---- per moving volume: every angle's rotation and mapped bounds ----
@@ -312,9 +296,10 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             }
         });
 
-    // Work blocks per test: loop iterations per item stay under the budget.
-    auto blocks_of = [&](const OverlapTest& test) {
-        const ColumnVolume& s = test.fixed->columns;
+    // Work blocks per test: loop iterations per item stay under the budget. `grow`: columns the
+    // fixed volume will gain on each side in x and y (its pooled form, before it exists).
+    auto blocks_of = [&](const OverlapTest& test, int grow = 0) {
+        const int nx = test.fixed->columns.nx + grow, ny = test.fixed->columns.ny + grow;
         // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
         // frame, then give the item as many frames as fit.
         const bool per_frame = test.want == Want::EveryFrame;
@@ -323,10 +308,10 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
                  "or a shorter segment", per_column, options_.loop_budget);
         Blocks b;
-        b.columns = int(std::min<std::uint64_t>(std::uint64_t(std::max(s.nx, 1)), options_.loop_budget / per_column));
-        b.rows = int(std::clamp<std::uint64_t>(options_.loop_budget / (per_column * std::uint64_t(b.columns)), 1, std::uint64_t(std::max(s.ny, 1))));
-        b.items_x = (std::max(s.nx, 1) + b.columns - 1) / b.columns;
-        b.items_per_pose = b.items_x * ((std::max(s.ny, 1) + b.rows - 1) / b.rows);
+        b.columns = int(std::min<std::uint64_t>(std::uint64_t(std::max(nx, 1)), options_.loop_budget / per_column));
+        b.rows = int(std::clamp<std::uint64_t>(options_.loop_budget / (per_column * std::uint64_t(b.columns)), 1, std::uint64_t(std::max(ny, 1))));
+        b.items_x = (std::max(nx, 1) + b.columns - 1) / b.columns;
+        b.items_per_pose = b.items_x * ((std::max(ny, 1) + b.rows - 1) / b.rows);
         if (per_frame) {
             const std::uint64_t per_frame_cost = per_column * std::uint64_t(b.columns) * std::uint64_t(b.rows) + 4;
             b.frames_per_item = int(std::clamp<std::uint64_t>(options_.loop_budget / per_frame_cost, 1, std::uint64_t(test.frames)));
@@ -334,6 +319,31 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             b.items_per_pose *= (test.frames + b.frames_per_item - 1) / b.frames_per_item;
         }
         return b;
+    };
+
+    // Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
+    // (dilated_columns). Pooled volumes are shared like the volumes they come from, and made when a
+    // stage first goes pose by pose (with maps, most never do).
+    const int block = std::max(1, options_.block);
+    std::vector<std::vector<OverlapTest>> block_stages(4);
+    std::array<bool, 4> blocks_made{};
+    std::map<const GpuVolume*, GpuVolume*> pooled;
+    auto block_stage = [&](int stage) -> const std::vector<OverlapTest>& {
+        auto& tests = block_stages[std::size_t(stage)];
+        if (blocks_made[std::size_t(stage)]) return tests;
+        blocks_made[std::size_t(stage)] = true;
+        for (OverlapTest test : stages[std::size_t(stage)]) {
+            auto [it, added] = pooled.emplace(test.fixed, nullptr);
+            if (added) it->second = add(dilated_columns(test.fixed->columns, block));
+            GpuVolume* volume = it->second;
+            if (test.want == Want::EveryFrame && !volume->frame_boxes) {
+                const auto& boxes = volume->columns.slot_boxes;
+                volume->frame_boxes = upload_to_host(context_, boxes.data() + 1, (boxes.size() - 1) * 16);
+            }
+            test.fixed = volume;
+            tests.push_back(test);
+        }
+        return tests;
     };
 
     // ---- stages ----
@@ -367,6 +377,11 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         auto pose_at = [&](std::uint64_t p) { return pose_list ? (*pose_list)[p] : implicit_pose(angle_first, p); };
         for (std::size_t t = 0; t < stage.size(); ++t) {
             const OverlapTest& test = stage[t];
+            for (GpuVolume* v : {test.fixed, test.moving})
+                if (!v->bits) {
+                    v->bits = upload_to_host(context_, v->columns.bits.data(), v->columns.bits.size() * 4);
+                    v->rows = upload_to_host(context_, v->columns.rows.data(), v->columns.rows.size() * 8);
+                }
             const ColumnVolume& s = test.fixed->columns;
             const ColumnVolume& m = test.moving->columns;
             const Blocks b = blocks_of(test);
@@ -449,7 +464,10 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // Batches of angles small enough for the flag buffer and 32-bit item counts.
     const std::uint64_t per_angle = std::uint64_t(range.width()) * range.height();
     std::uint64_t max_items = 1;
-    for_each_test([&](const OverlapTest& test) { max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose)); });
+    for_each_test([&](const OverlapTest& test) {
+        max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose));
+        if (block > 1) max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test, block - 1).items_per_pose));
+    });
     const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options_.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
     if (per_angle > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle, max_poses);
     // Overlap maps: one bit per offset, a row of words per j, per angle and map.
@@ -691,7 +709,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<Verdict> verdicts(bases.size(), Verdict::Pass);
         if (bases.empty()) return verdicts;
         stats_.blocks_per_stage[std::size_t(stage)] += bases.size();
-        const auto& tests = block_stages[std::size_t(stage)];
+        const auto& tests = block_stage(stage);
         const auto meets = run_stage(tests, &bases, 0, 0);
         for (std::size_t b = 0; b < bases.size(); ++b)
             for (std::size_t t = 0; t < tests.size(); ++t) {
