@@ -174,7 +174,7 @@ TEST(Sweep, RandomScenesMatchReference) {
         // Overlap maps (the default) decide contact without a single pose test; every other stage
         // can go by maps too (in one pass over the z slices or several), or pose by pose, whatever
         // the cost model says.
-        for (const auto& [pose_test_pairs, map_passes] : {std::pair{0.0, 4}, std::pair{1e12, 4}, std::pair{1e12, 1}, std::pair{1e12, 3}}) {
+        for (const auto& [pose_test_pairs, map_passes] : {std::pair{0.0, 5}, std::pair{1e12, 5}, std::pair{1e12, 1}, std::pair{1e12, 3}}) {
             gpu::VulkanSweeper mapped(test::context(), {.pose_test_pairs = pose_test_pairs, .map_passes = map_passes});
             EXPECT_EQ(mapped.sweep(problem).outcomes, both.reference.outcomes) << pose_test_pairs << " " << map_passes;
             test::expect_no_validation_messages();

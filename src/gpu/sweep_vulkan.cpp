@@ -104,6 +104,17 @@ struct MapTest {
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
 };
 
+// The overlap-map pass of z slice `z` out of `passes`: coarse to fine, slices whose index has
+// more trailing zeros go first. With 5 passes: every 16th slice, then the slices halfway between
+// them (as many again), then an eighth, a quarter and the remaining half of all slices. Each pass
+// spans the whole height, so early passes find most overlaps with few pairs.
+int pass_of(int z, int passes) {
+    const int last = passes - 1;
+    for (int p = 0; p < last; ++p)
+        if (z % (1 << (last - p)) == 0) return p;
+    return last;
+}
+
 struct Blocks {
     int columns, rows, items_x, items_per_pose;
     int frames_per_item = 0, spatial_items = 1;
@@ -572,16 +583,17 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // Decides `test` for every pose of the batch (implicit order) with an overlap map, computed only
     // on the rows `rows[a]` (first, last j - j_first; empty: first > last) of each angle a of the
     // batch and, where `candidates` is given (per pose of the batch), exactly only on those poses.
-    // The map goes in passes over the z slices: a pose that a pass decides (an overlap found) leaves
-    // play, so later passes skip the runs that reach only decided poses. For contact a quarter of
-    // the slices finds nearly every overlap, and the rest of the runs reach almost nothing new.
+    // The map goes in passes over the z slices, coarse to fine (pass_of): a pose that a pass decides
+    // (an overlap found) leaves play, so later passes skip the runs that reach only decided poses.
+    // For contact a sixteenth of the slices finds most overlaps, and the rest of the runs reach
+    // little that is new.
     std::unique_ptr<Buffer> pulled, map_words;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* candidates) {
         const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width;
         if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
         const int maps = test.maps_per_angle();
         // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
-        const int passes = test.want != Want::EveryFrame ? std::max(1, options_.map_passes) : 1;
+        const int passes = test.want != Want::EveryFrame ? std::clamp(options_.map_passes, 1, 16) : 1;
         // The poses in play not decided yet; without candidates, every pose once the first pass is in.
         std::vector<std::uint8_t> open;
         if (candidates) open = *candidates;
@@ -590,7 +602,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         auto for_each_angle = [&](const auto& work) {
             parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); });
         };
-        // Per angle and pass: the runs whose z modulo the pass count is the pass (in key order).
+        // Per angle and pass: the runs of the pass's z slices (pass_of), in key order.
         std::vector<std::vector<std::vector<SliceRun>>> slice_runs_of(static_cast<std::size_t>(batch_angles));
         std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
         for_each_angle([&](int a) {
@@ -600,7 +612,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             if (passes == 1) return;
             std::vector<SliceRun> all = std::move(by_pass[0]);
             by_pass[0].clear();
-            for (const SliceRun& run : all) by_pass[std::size_t((run.key % test.runs.zbits) % passes)].push_back(run);
+            for (const SliceRun& run : all) by_pass[std::size_t(pass_of(run.key % test.runs.zbits, passes))].push_back(run);
         });
         const int longest = *std::max_element(longest_of.begin(), longest_of.end());
         const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(range.height()) * std::uint64_t(row_words) * 4;
