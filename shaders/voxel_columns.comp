@@ -1,5 +1,5 @@
 #version 450
-// Pass 4 of the solid voxelisation: one invocation per (x, y) column. For every frame of the batch
+// Pass 2 of the solid voxelisation: one invocation per (x, y) column. For every frame of the batch
 // it sorts the frame's crossing keys (layer << 1 | upward) and walks them upwards with the frame's
 // winding number, flipping the frame's bit in toggles[layer] wherever the voxels switch between
 // inside (winding non-zero) and outside. Then an XOR up the column over the flips gives each
@@ -8,8 +8,8 @@
 // read is reset, so the next batch needs no clear. Work scales with the column's crossings and
 // span, not with frames x layers.
 // Loop work is at most frames + MAX_COLUMN_CROSSINGS * (log2 MAX_COLUMN_CROSSINGS + 2) for the
-// sorts and walks plus slab_layers for the XOR; the allocation pass flags a column with more
-// crossings (it is skipped here) and the host redoes the batch with fewer frames.
+// sorts and walks plus slab_layers for the XOR; a column with more crossings is skipped and
+// flagged, and the host redoes the batch with fewer frames.
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const uint MAX_COLUMN_CROSSINGS = 1024;
@@ -18,7 +18,8 @@ const uint INSERTION_SORT_MAX = 12;  // small buckets (the usual 2 to 8 crossing
 layout(std430, set = 0, binding = 0) buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Starts { uint bucket_start[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Ends { uint bucket_end[]; };  // the fill pass's cursors
-layout(std430, set = 0, binding = 3) readonly buffer ColumnKeys { uint column_keys[]; };
+// The most crossings a skipped column had (0: none skipped).
+layout(std430, set = 0, binding = 3) buffer Overflow { uint most_column_crossings; };
 // [y][x][z]: each column's flips lie together, so its walk below reads them in order.
 layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };
 layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };        // [z][y][x] of the slab
@@ -73,8 +74,13 @@ void sort_bucket(uint start, uint n) {
 void main() {
     if (gl_GlobalInvocationID.x >= params.column_count) return;
     uint column = params.column_base + gl_GlobalInvocationID.x;
-    uint total = column_keys[column];
-    if (total == 0u || total > MAX_COLUMN_CROSSINGS) return;
+    uint total = 0u;
+    for (uint s = 0u; s < params.frames; ++s) total += bucket_end[column * params.frames + s] - bucket_start[column * params.frames + s];
+    if (total == 0u) return;
+    if (total > MAX_COLUMN_CROSSINGS) {
+        atomicMax(most_column_crossings, total);
+        return;
+    }
 
     int first = params.slab_layers, last = -1;
     for (uint s = 0u; s < params.frames; ++s) {

@@ -1,21 +1,17 @@
 #version 450
-// Passes 1 and 3 of the solid voxelisation. Every invocation takes one (triangle, tile of columns)
-// work item and finds the columns whose centre the triangle's xy-projection covers. A bucket is
-// one (column, frame slot): index column * frames + slot.
-//   COUNT (mode 0): counts the crossings of every bucket, so voxel_allocate.comp can give each
-//                   bucket a contiguous stretch of the key list.
-//   FILL  (mode 1): appends the crossing key (layer << 1 | upward) to its bucket's stretch, where
-//                   layer is the first voxel centre above the crossing, relative to the slab
-//                   (crossings below the slab count from its first layer; those above it affect no
-//                   voxel of the slab and are left out).
-// Both modes run the same exact coverage test, so FILL never writes more keys than COUNT counted.
+// Pass 1 of the solid voxelisation. Every invocation takes one (triangle, tile of columns) work
+// item and finds the columns whose centre the triangle's xy-projection covers. A bucket is one
+// (column, frame slot): index column * frames + slot. Each crossing's key (layer << 1 | upward)
+// goes into its bucket's next slot, where layer is the first voxel centre above the crossing,
+// relative to the slab (crossings below the slab count from its first layer; those above it
+// affect no voxel of the slab and are left out). The host gave every bucket room for one key per
+// triangle whose bounding box holds the column, so the slots never run out.
 // Work per invocation is at most TILE*TILE columns, well under lavapipe's loop cap.
 #extension GL_GOOGLE_include_directive : require
 #include "fixed_raster.glsl"
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const int TILE = 16;
-layout(constant_id = 2) const int MODE = 0;  // 0 = count, 1 = fill
 
 struct Triangle {
     ivec4 a;  // xyz fixed point; a.w = frame slot within the batch
@@ -24,8 +20,8 @@ struct Triangle {
 };
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
 layout(std430, set = 0, binding = 1) readonly buffer WorkItems { uvec2 work_items[]; };  // (triangle, tile x | tile y << 16)
-// COUNT: crossings per bucket. FILL: the next free key slot of each bucket.
-layout(std430, set = 0, binding = 2) buffer BucketCounters { uint bucket_counter[]; };
+// The next free key slot of each bucket.
+layout(std430, set = 0, binding = 2) buffer BucketCursors { uint bucket_cursor[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Keys { uint keys[]; };
 
 layout(push_constant) uniform Params {
@@ -87,15 +83,11 @@ void main() {
         for (int x = x_first; x <= x_last; ++x) {
             if (covers(wa, top_left_a) && covers(wb, top_left_b) && covers(wc, top_left_c)) {
                 uint bucket = (uint(y) * uint(params.nx) + uint(x)) * params.frames + frame_slot;
-                if (MODE == 0) {
-                    atomicAdd(bucket_counter[bucket], 1u);
-                } else {
-                    int64_t layer = floor_div_estimated(numerator, layer_divisor) + 1 - int64_t(params.z_begin);
-                    // Above this slab: affects no voxel here. Below it: counts from its first layer.
-                    if (layer < int64_t(params.slab_layers)) {
-                        uint slot = atomicAdd(bucket_counter[bucket], 1u);
-                        keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
-                    }
+                int64_t layer = floor_div_estimated(numerator, layer_divisor) + 1 - int64_t(params.z_begin);
+                // Above this slab: affects no voxel here. Below it: counts from its first layer.
+                if (layer < int64_t(params.slab_layers)) {
+                    uint slot = atomicAdd(bucket_cursor[bucket], 1u);
+                    keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
                 }
             }
             wa += step_x_wa;

@@ -5,7 +5,6 @@
 #include <memory>
 
 #include "core/error.hpp"
-#include "voxel_allocate.spv.h"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
 
@@ -22,9 +21,6 @@ struct RasterParams {
     std::uint32_t work_base, work_count;
     std::int32_t nx, ny, z_begin, slab_layers;
     std::uint32_t frames;
-};
-struct AllocateParams {
-    std::uint32_t column_base, column_count, frames;
 };
 struct ColumnParams {
     std::uint32_t column_base, column_count, columns, frames;
@@ -50,9 +46,7 @@ void for_each_crossable(const PreparedFrame& frame, int nx, int ny, Visit&& visi
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
-      count_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 0}),
-      allocate_(context, voxel_allocate_spv, 6, sizeof(AllocateParams), {kWorkgroup, options.max_column_crossings}),
-      fill_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile, 1}),
+      fill_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile}),
       columns_(context, voxel_columns_spv, 6, sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings}) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
@@ -135,37 +129,41 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     } release{b};
     ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
     ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.column_keys, layer_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.bucket_count, bucket_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.bucket_start, bucket_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.bucket_cursor, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.bucket_start, bucket_bytes, Buffer::Memory::Host);
+    ensure_capacity(context_, b.bucket_cursor, bucket_bytes, Buffer::Memory::Host);
     ensure_capacity(context_, b.keys, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
-    ensure_capacity(context_, b.keys_allocated, 4, Buffer::Memory::Device);
     ensure_capacity(context_, b.overflow, 4, Buffer::Memory::Host);
-    Buffer &mask = *b.mask, &toggles = *b.toggles, &column_keys = *b.column_keys, &bucket_count = *b.bucket_count;
-    Buffer &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys, &keys_allocated = *b.keys_allocated;
+    Buffer &mask = *b.mask, &toggles = *b.toggles, &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys;
     Buffer& overflow = *b.overflow;
     std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
     most_column_crossings = 0;
     std::unique_ptr<Buffer>& triangles = b.triangles;
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
-    // Cleared once: afterwards the passes reset every counter and flip word they consume.
-    sequence.fill(bucket_count, bucket_bytes, 0u);
+    // Cleared once: afterwards the column pass resets every flip word it consumes.
     sequence.fill(toggles, slab_bytes, 0u);
 
-    // Host side of a batch: its triangles and one work item per (triangle, covered tile).
+    // Host side of a batch: its triangles, one work item per (triangle, covered tile), and each
+    // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
+    // of that frame whose bounding box holds the column, an upper bound on its crossings, so the
+    // raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
     std::vector<GpuTriangle> batch_triangles;
     std::vector<std::uint32_t> batch_items;  // pairs (triangle, tile x | tile y << 16)
+    std::vector<std::uint32_t> bucket_room;
     auto gather = [&](int batch_first, int batch_frames) {
         batch_triangles.clear();
         batch_items.clear();
+        bucket_room.assign(std::size_t(columns) * std::size_t(batch_frames), 0u);
         for (int slot = 0; slot < batch_frames; ++slot) {
             const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
             if (!frame.closed) continue;
             for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
                 auto index = std::uint32_t(batch_triangles.size());
                 batch_triangles.push_back({{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}});
+                for (int y = y0; y <= y1; ++y) {
+                    std::uint32_t* room = bucket_room.data() + (std::size_t(y) * std::size_t(nx) + std::size_t(x0)) * std::size_t(batch_frames) + std::size_t(slot);
+                    for (int x = x0; x <= x1; ++x, room += batch_frames) ++*room;
+                }
                 for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
                     for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
                         batch_items.push_back(index);
@@ -197,22 +195,23 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 ensure_host_capacity(context_, work_items, batch_items.size() * sizeof(std::uint32_t));
                 std::memcpy(triangles->mapped<GpuTriangle>().data(), batch_triangles.data(), batch_triangles.size() * sizeof(GpuTriangle));
                 std::memcpy(work_items->mapped<std::uint32_t>().data(), batch_items.data(), batch_items.size() * sizeof(std::uint32_t));
-                auto count_set = count_.bind({triangles.get(), work_items.get(), &bucket_count, &keys});
-                auto allocate_set = allocate_.bind({&bucket_count, &bucket_start, &bucket_cursor, &column_keys, &keys_allocated, &overflow});
+                {
+                    // Stretches in bucket order; every cursor starts at its bucket's start.
+                    std::uint32_t* starts = bucket_start.mapped<std::uint32_t>().data();
+                    std::uint32_t* cursors = bucket_cursor.mapped<std::uint32_t>().data();
+                    std::uint32_t next = 0;
+                    for (std::size_t bucket = 0; bucket < bucket_room.size(); ++bucket) {
+                        starts[bucket] = cursors[bucket] = next;
+                        next += bucket_room[bucket];
+                    }
+                }
                 auto fill_set = fill_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
-                auto columns_set = columns_.bind({&keys, &bucket_start, &bucket_cursor, &column_keys, &toggles, &mask});
+                auto columns_set = columns_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask});
                 const auto items = std::uint32_t(batch_items.size() / 2);
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
 
-                sequence.fill(keys_allocated, 4, 0u);
-                // The clears, or the previous batch's resets and its last reads of the keys and
-                // cursors, must be done before this batch counts.
-                sequence.barrier();
-                sequence.dispatch(count_, count_set, raster, items);
-                // Every count must be in before the buckets are allocated.
-                sequence.barrier();
-                sequence.dispatch(allocate_, allocate_set, AllocateParams{0, 0, std::uint32_t(batch_frames)}, columns);
-                // The fill pass appends through the cursors the allocation wrote.
+                // The clears, or the previous batch's resets and its last reads of the keys, must
+                // be done before this batch writes keys (the host wrote the cursors after the fence).
                 sequence.barrier();
                 sequence.dispatch(fill_, fill_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.

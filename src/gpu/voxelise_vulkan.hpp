@@ -1,11 +1,11 @@
 #pragma once
 // The solid voxeliser on Vulkan compute. Per batch of frames (at most one 32-frame occupancy word):
-//   voxel_raster.comp    counts the surface crossings of every bucket (voxel column, frame);
-//   voxel_allocate.comp  gives each column's buckets consecutive stretches of one key list;
-//   voxel_raster.comp    (fill mode) writes each crossing's layer and direction there;
-//   voxel_columns.comp   per column: sorts each bucket, flips the frame's bit wherever its winding
-//                        number switches between zero and non-zero, and runs an XOR up the column
-//                        over the flips: the occupancy words.
+//   the host         gives every bucket (voxel column, frame) a stretch of one key list, with room
+//                    for one key per triangle of that frame whose bounding box holds the column;
+//   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
+//   voxel_columns.comp per column: sorts each bucket, flips the frame's bit wherever its winding
+//                    number switches between zero and non-zero, and runs an XOR up the column
+//                    over the flips: the occupancy words.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
 #include <array>
 #include <cstdint>
@@ -53,19 +53,15 @@ public:
 private:
     Context& context_;
     VoxeliserOptions options_;
-    Kernel count_;
-    Kernel allocate_;
     Kernel fill_;
     Kernel columns_;
     Plan plan_;
     // Scratch kept between calls while it stays under kKeptBytes in all.
     static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
     struct Buffers {
-        std::unique_ptr<Buffer> mask, toggles, column_keys, bucket_count, bucket_start, bucket_cursor, keys, keys_allocated, overflow;
+        std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow;
         std::unique_ptr<Buffer> triangles, work_items;
-        std::array<std::unique_ptr<Buffer>*, 11> all() {
-            return {&mask, &toggles, &column_keys, &bucket_count, &bucket_start, &bucket_cursor, &keys, &keys_allocated, &overflow, &triangles, &work_items};
-        }
+        std::array<std::unique_ptr<Buffer>*, 8> all() { return {&mask, &toggles, &bucket_start, &bucket_cursor, &keys, &overflow, &triangles, &work_items}; }
     };
     Buffers buffers_;
 };
