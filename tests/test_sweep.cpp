@@ -335,17 +335,23 @@ TEST(Sweep, ViewConeVolumeIsEveryCentreInsideTheCone) {
     }
 }
 
+// A column volume of nx x ny columns at global (x0, y0), all words clear.
+ColumnVolume blank_columns(std::int64_t x0, std::int64_t y0, int nx, int ny, int slots, int zwords) {
+    ColumnVolume volume;
+    volume.x0 = x0;
+    volume.y0 = y0;
+    volume.nx = nx;
+    volume.ny = ny;
+    volume.slots = slots;
+    volume.zwords = zwords;
+    volume.bits.assign(std::size_t(nx) * std::size_t(ny) * volume.column_words(), 0u);
+    return volume;
+}
+
 // Pooling over a block of offsets: every column of the result is the OR of the block's columns.
 TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
     std::mt19937 random(7);
-    ColumnVolume volume;
-    volume.x0 = -5;
-    volume.y0 = 17;
-    volume.nx = 13;
-    volume.ny = 11;
-    volume.slots = 3;
-    volume.zwords = 2;
-    volume.bits.assign(std::size_t(volume.nx) * std::size_t(volume.ny) * volume.column_words(), 0u);
+    ColumnVolume volume = blank_columns(-5, 17, 13, 11, 3, 2);
     for (auto& word : volume.bits)
         if (random() % 5 == 0) word = std::uint32_t(random()) & std::uint32_t(random());
     volume.finish();
@@ -374,14 +380,7 @@ TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
 // runs of the pulled voxels, found here voxel by voxel with source_column, in (key, y, x) order.
 TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
     std::mt19937 random(11);
-    ColumnVolume volume;
-    volume.x0 = -31;
-    volume.y0 = 12;
-    volume.nx = 40;
-    volume.ny = 33;
-    volume.slots = 4;
-    volume.zwords = 2;
-    volume.bits.assign(std::size_t(volume.nx) * std::size_t(volume.ny) * volume.column_words(), 0u);
+    ColumnVolume volume = blank_columns(-31, 12, 40, 33, 4, 2);
     // Blobs of columns sharing words, so runs span many columns, plus scattered noise.
     for (int y = 0; y < volume.ny; ++y)
         for (int x = 0; x < volume.nx; ++x)

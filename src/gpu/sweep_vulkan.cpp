@@ -93,13 +93,8 @@ struct MapTest {
     std::vector<int> slots;
     Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
     FixedRuns runs;
-    // Per fixed key: the box of its runs (x_first, x_last, y_first, y_last; global; empty: first > last).
-    std::vector<std::array<std::int32_t, 4>> key_boxes;
-    // Per fixed key and row of its box: the row's first x_first and last x_last (empty row: first >
-    // last), from row_hull_first[key] on.
-    std::vector<std::array<std::int32_t, 2>> row_hulls;
-    std::vector<std::uint32_t> row_hull_first;
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
+    std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
 };
@@ -192,7 +187,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
         std::vector<int> every_frame(static_cast<std::size_t>(frames));
         for (int t = 0; t < frames; ++t) every_frame[std::size_t(t)] = 1 + t;
         auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
-            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, {}, {}, {}, nullptr, nullptr};
+            return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr};
         };
         auto map_of = [&](const OverlapTest& test) {
             std::vector<int> slots{0};
@@ -229,34 +224,12 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 for (MapTest& test : stage) {
                     test.runs = fixed_runs(*test.fixed, test.slots);
                     test.moving_words = sparse_columns(*test.moving, test.slots);
-                    test.key_boxes.assign(test.runs.by_key.size(), {1, 0, 1, 0});
-                    for (std::size_t k = 0; k < test.runs.by_key.size(); ++k) {
-                        const auto [first, count] = test.runs.by_key[k];
-                        if (count == 0) continue;
-                        auto& box = test.key_boxes[k];
-                        box = {std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::min(), test.runs.runs[std::size_t(first)].y,
-                               test.runs.runs[std::size_t(first + count - 1)].y};
-                        for (std::int32_t r = first; r < first + count; ++r)
-                            box[0] = std::min(box[0], test.runs.runs[std::size_t(r)].x_first), box[1] = std::max(box[1], test.runs.runs[std::size_t(r)].x_last);
-                    }
-                    test.row_hull_first.assign(test.runs.by_key.size(), 0);
-                    for (std::size_t k = 0; k < test.runs.by_key.size(); ++k) {
-                        test.row_hull_first[k] = std::uint32_t(test.row_hulls.size());
-                        const auto& box = test.key_boxes[k];
-                        if (box[0] > box[1]) continue;
-                        test.row_hulls.resize(test.row_hulls.size() + std::size_t(box[3] - box[2] + 1), {1, 0});
-                        const auto [first, count] = test.runs.by_key[k];
-                        for (std::int32_t r = first; r < first + count; ++r) {
-                            const SliceRun& run = test.runs.runs[std::size_t(r)];
-                            auto& hull = test.row_hulls[test.row_hull_first[k] + std::size_t(run.y - box[2])];
-                            hull = hull[0] > hull[1] ? std::array<std::int32_t, 2>{run.x_first, run.x_last}
-                                                     : std::array<std::int32_t, 2>{std::min(hull[0], run.x_first), std::max(hull[1], run.x_last)};
-                        }
-                    }
                     // Packed (y, x_first | x_last << 16) relative to the volume's origin.
                     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
                         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel",
                              test.fixed->nx, test.fixed->ny);
+                    // Pulled runs are cut to pulled_clip, which starts here for every angle and row.
+                    test.pulled_x0 = std::int32_t(test.fixed->x0) + test.fixed->x_first - problem.range.i_last;
                     std::vector<std::array<std::uint32_t, 2>> packed;
                     packed.reserve(test.runs.runs.size());
                     for (const SliceRun& run : test.runs.runs)
@@ -544,10 +517,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
         };
         const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
-        const std::int32_t x_base = std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last;
         for (const SliceRun& run : runs) {
             const std::int32_t fixed_key = run.key % keys_per_angle;
-            const auto& box = test.key_boxes[std::size_t(fixed_key)];
+            const auto& box = test.runs.key_boxes[std::size_t(fixed_key)];
             if (box[0] > box[1]) continue;
             // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
             int j0 = std::max(rows[0], box[2] - run.y - range.j_first), j1 = std::min(rows[1], box[3] - run.y - range.j_first);
@@ -557,7 +529,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
                 // The first and last rows where a pose in play lies within reach of the fixed row
                 // at the other end: its runs' hull, moved by this run.
-                const auto* hulls = test.row_hulls.data() + test.row_hull_first[std::size_t(fixed_key)];
+                const auto* hulls = test.runs.row_hulls.data() + test.runs.row_hull_first[std::size_t(fixed_key)];
                 int reach_first = j1 + 1, reach_last = j0 - 1;
                 for (int j = j0; j <= j1; ++j) {
                     const auto& hull = hulls[run.y + range.j_first + j - box[2]];
@@ -574,7 +546,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             const auto from = std::lower_bound(key_begin, key_end, run.y + range.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
             const auto to = std::upper_bound(from, key_end, run.y + range.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
             pairs += std::uint64_t(to - from);
-            out.push_back({run.y, std::uint32_t(run.x_first - x_base) | std::uint32_t(run.x_last - x_base) << 16, run.key,
+            out.push_back({run.y, std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16, run.key,
                            std::uint32_t(j0) | std::uint32_t(j1) << 16});
         }
         return pairs;
@@ -589,6 +561,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     // little that is new.
     std::unique_ptr<Buffer> pulled, map_words;
     auto run_map = [&](MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* candidates) {
+        // Pulled runs' x is packed in 16 bits relative to pulled_x0.
         const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width;
         if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
         const int maps = test.maps_per_angle();
@@ -658,7 +631,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                        range.i_first, range.j_first, range.width(), range.height(), row_words,
                                        test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
-                                       std::int32_t(test.fixed->x0) + test.fixed->x_first - range.i_last};
+                                       test.pulled_x0};
                 stats_.work_items += items;
                 sequence.dispatch(map_, *set, params, std::uint32_t(items));
             }

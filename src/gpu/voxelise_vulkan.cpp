@@ -46,7 +46,7 @@ void for_each_crossable(const PreparedFrame& frame, int nx, int ny, Visit&& visi
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
-      fill_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile}),
+      raster_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile}),
       columns_(context, voxel_columns_spv, 6, sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings}) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
@@ -205,7 +205,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                         next += bucket_room[bucket];
                     }
                 }
-                auto fill_set = fill_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
+                auto raster_set = raster_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
                 auto columns_set = columns_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask});
                 const auto items = std::uint32_t(batch_items.size() / 2);
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
@@ -213,7 +213,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 // The clears, or the previous batch's resets and its last reads of the keys, must
                 // be done before this batch writes keys (the host wrote the cursors after the fence).
                 sequence.barrier();
-                sequence.dispatch(fill_, fill_set, raster, items);
+                sequence.dispatch(raster_, raster_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
                 sequence.dispatch(columns_, columns_set,

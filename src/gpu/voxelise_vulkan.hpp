@@ -53,7 +53,7 @@ public:
 private:
     Context& context_;
     VoxeliserOptions options_;
-    Kernel fill_;
+    Kernel raster_;
     Kernel columns_;
     Plan plan_;
     // Scratch kept between calls while it stays under kKeptBytes in all.

@@ -10,66 +10,13 @@ namespace amhv {
 
 namespace {
 
-// Collects the runs of one row, column by column in increasing x: one open run per z.
-class RowRuns {
-public:
-    explicit RowRuns(int zbits) : first_(std::size_t(zbits), kNone), last_(std::size_t(zbits), kNone) {}
-
-    void add(std::int32_t x, int word, std::uint32_t bits) {
-        while (bits != 0u) {
-            const int z = word * 32 + std::countr_zero(bits);
-            bits &= bits - 1u;
-            auto& first = first_[std::size_t(z)];
-            auto& last = last_[std::size_t(z)];
-            if (first == kNone) {
-                open_.push_back(z);
-            } else if (last != x - 1) {
-                emit(z);
-            } else {
-                last = x;
-                continue;
-            }
-            first = last = x;
-        }
-    }
-
-    // Closes the row: every open run goes out.
-    void end_row() {
-        for (int z : open_) {
-            emit(z);
-            first_[std::size_t(z)] = last_[std::size_t(z)] = kNone;
-        }
-        open_.clear();
-    }
-
-    // Where the row's runs go, with their y and key base.
-    void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
-        y_ = y;
-        key_base_ = key_base;
-        out_ = &out;
-        longest_ = &longest;
-    }
-
-private:
-    static constexpr std::int32_t kNone = std::numeric_limits<std::int32_t>::min();
-    void emit(int z) {
-        const std::int32_t first = first_[std::size_t(z)], last = last_[std::size_t(z)];
-        out_->push_back({y_, first, last, key_base_ + z});
-        *longest_ = std::max(*longest_, int(last - first + 1));
-    }
-    std::vector<std::int32_t> first_, last_;
-    std::vector<int> open_;
-    std::int32_t y_ = 0, key_base_ = 0;
-    std::vector<SliceRun>* out_ = nullptr;
-    int* longest_ = nullptr;
-};
-
-// Cuts one row into runs from whole words, column by column in increasing x: a run starts where a
+// Cuts one row into maximal runs from whole words, column by column in increasing x (runs of one
+// key come out in increasing x): a run starts where a
 // bit is set and was clear in the previous column, and ends where it was set and is clear now, so
 // the work is per run end rather than per set voxel.
-class WordRowRuns {
+class RowRuns {
 public:
-    explicit WordRowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
+    explicit RowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
 
     void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
         y_ = y;
@@ -126,21 +73,21 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
     check_lattice(volume.x0, volume.y0, volume.nx, volume.ny);
     FixedRuns result;
     result.zbits = 32 * volume.zwords;
-    RowRuns row(result.zbits);
+    RowRuns row{std::size_t(volume.zwords)};
     for (std::size_t s = 0; s < slots.size(); ++s) {
         const int slot = slots[s];
         if (slot < 0 || slot >= volume.slots) fail("sweep", "internal: slot {} of a volume with {} slots", slot, volume.slots);
         const auto& box = volume.slot_boxes[std::size_t(slot)];
         const std::int32_t key_base = std::int32_t(s) * result.zbits;
         for (int y = box[1]; y <= box[3]; ++y) {
-            const std::int32_t gy = std::int32_t(volume.y0 + y);
-            row.start_row(gy, key_base, result.runs, result.longest);
+            row.start_row(std::int32_t(volume.y0 + y), key_base, result.runs, result.longest);
             for (int x = box[0]; x <= box[2]; ++x) {
                 const std::uint32_t* words = volume.column(x, y) + std::size_t(slot) * std::size_t(volume.zwords);
                 for (int w = 0; w < volume.zwords; ++w)
-                    if (words[w] != 0u) row.add(std::int32_t(volume.x0 + x), w, words[w]);
+                    if (words[w] != 0u) row.add(w, words[w]);
+                row.end_column(std::int32_t(volume.x0 + x));
             }
-            row.end_row();
+            row.end_row(std::int32_t(volume.x0 + box[2]));
         }
     }
     // Rows were visited in increasing y and each key's runs of a row come out in increasing x, so a
@@ -152,6 +99,25 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
         if (entry[1] == 0) entry[0] = std::int32_t(r);
         ++entry[1];
         result.most_per_key = std::max(result.most_per_key, int(entry[1]));
+    }
+    // Per key: the box of its runs and, per row of the box, the hull of the row's runs.
+    result.key_boxes.assign(result.by_key.size(), {1, 0, 1, 0});
+    result.row_hull_first.assign(result.by_key.size(), 0);
+    for (std::size_t k = 0; k < result.by_key.size(); ++k) {
+        result.row_hull_first[k] = std::uint32_t(result.row_hulls.size());
+        const auto [first, count] = result.by_key[k];
+        if (count == 0) continue;
+        const std::int32_t y_first = result.runs[std::size_t(first)].y, y_last = result.runs[std::size_t(first + count - 1)].y;
+        auto& box = result.key_boxes[k];
+        box = {std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::min(), y_first, y_last};
+        result.row_hulls.resize(result.row_hulls.size() + std::size_t(y_last - y_first + 1), {1, 0});
+        for (std::int32_t r = first; r < first + count; ++r) {
+            const SliceRun& run = result.runs[std::size_t(r)];
+            box[0] = std::min(box[0], run.x_first), box[1] = std::max(box[1], run.x_last);
+            auto& hull = result.row_hulls[result.row_hull_first[k] + std::size_t(run.y - y_first)];
+            hull = hull[0] > hull[1] ? std::array<std::int32_t, 2>{run.x_first, run.x_last}
+                                     : std::array<std::int32_t, 2>{std::min(hull[0], run.x_first), std::max(hull[1], run.x_last)};
+        }
     }
     return result;
 }
@@ -201,7 +167,7 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     // Runs in visiting order (row by row), then counted into key order: within a key they stay in
     // (y, x) order, as a stable sort by key would leave them.
     std::vector<SliceRun> visited;
-    WordRowRuns row{key_count / 32};
+    RowRuns row{key_count / 32};
     for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
         row.start_row(gy, key_base, visited, longest);
         posemap::Step at = posemap::source_step(box[0], gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);

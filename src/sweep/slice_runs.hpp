@@ -30,6 +30,12 @@ struct FixedRuns {
     std::vector<std::array<std::int32_t, 2>> by_key;    // per key: first run, run count
     int longest = 0;                                    // voxels in the longest run
     int most_per_key = 0;                               // runs in the fullest key
+    // Per key: the box of its runs (x_first, x_last, y_first, y_last; global; empty: first > last).
+    std::vector<std::array<std::int32_t, 4>> key_boxes;
+    // Per key and row of its box: the row's first x_first and last x_last (empty row: first >
+    // last), from row_hull_first[key] on.
+    std::vector<std::array<std::int32_t, 2>> row_hulls;
+    std::vector<std::uint32_t> row_hull_first;
 };
 
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
