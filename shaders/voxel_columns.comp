@@ -3,35 +3,70 @@
 // it sorts the frame's crossing keys (layer << 1 | upward) and walks them upwards with the frame's
 // winding number, flipping the frame's bit in toggles[layer] wherever the voxels switch between
 // inside (winding non-zero) and outside. Then an XOR up the column over the flips gives each
-// layer's occupancy word, which is ORed into the mask (earlier batches of the same word set other
-// bits). Only layers between the column's first and last flip are visited, and every flip word
-// read is reset, so the next batch needs no clear. Work scales with the column's crossings and
-// span, not with frames x layers.
-// Loop work is at most frames + MAX_COLUMN_CROSSINGS * (log2 MAX_COLUMN_CROSSINGS + 2) for the
-// sorts and walks plus slab_layers for the XOR; a column with more crossings is skipped and
-// flagged, and the host redoes the batch with fewer frames.
+// layer's occupancy word, which goes into the mask. Only layers between the column's first and
+// last flip are visited. Work scales with the column's crossings and span, not frames x layers.
+//
+// The kernel is built three times, by the specialisation constant STAGE, and dispatched in order:
+//   FLIP_SMALL, one invocation per column: the buckets of at most REGISTER_KEYS keys (most of
+//     them), sorted in registers by a sorting network; each column's span of flips.
+//     It lists the larger buckets, and counts the workgroups of the next two stages' dispatches.
+//   FLIP_LARGE, one invocation per listed bucket of up to LARGE_KEYS keys, sorted in registers by a
+//     bitonic network. Frames of one column share flip words and spans, so these go in by atomics.
+//   FLIP_HUGE, the same for the buckets of more than LARGE_KEYS keys (rare), sorted in the key list.
+//   WRITE, one invocation per column: the XOR up the column's span.
+// A column with more crossings than MAX_COLUMN_CROSSINGS is skipped and flagged, and the host
+// redoes the batch with fewer frames. On lavapipe a sorting loop costs every invocation that
+// passes it, taken or not, so the large buckets' loops have a kernel of their own.
+// Loop work per invocation is at most frames, plus MAX_COLUMN_CROSSINGS * (log2 MAX_COLUMN_CROSSINGS
+// + 2) for a large bucket's sort and walk, or slab_layers for the XOR.
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const uint MAX_COLUMN_CROSSINGS = 1024;
-const uint INSERTION_SORT_MAX = 12;  // small buckets (the usual 2 to 8 crossings) sort by insertion
+layout(constant_id = 2) const uint STAGE = 0;
+const uint FLIP_SMALL = 0, FLIP_LARGE = 1, FLIP_HUGE = 2, WRITE = 3;
+const uint INSERTION_SORT_MAX = 12;  // huge buckets up to this size sort by insertion, larger ones by heap sort
+const uint REGISTER_KEYS = 8;         // FLIP_SMALL's largest bucket
+const uint LARGE_KEYS = 32;           // FLIP_LARGE's largest bucket
+const uint MAX_GROUPS = 65535;        // an indirect dispatch's workgroups at most (the least limit Vulkan allows)
+const uint NO_KEY = 0xffffffffu;       // above every key: pads a small bucket to REGISTER_KEYS
 
 layout(std430, set = 0, binding = 0) buffer Keys { uint keys[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Starts { uint bucket_start[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Ends { uint bucket_end[]; };  // the fill pass's cursors
+// Read-only data is read as texels: on lavapipe a texel fetch gathers all lanes at once, a
+// storage-buffer load runs lane by lane.
+// Bucket starts, and one more: the end of the last bucket.
+layout(set = 0, binding = 1) uniform usamplerBuffer bucket_start;
+layout(set = 0, binding = 2) uniform usamplerBuffer bucket_end;  // the raster's cursors
 // The most crossings a skipped column had (0: none skipped).
 layout(std430, set = 0, binding = 3) buffer Overflow { uint most_column_crossings; };
-// [y][x][z]: each column's flips lie together, so its walk below reads them in order.
+// [column][z]: each column's flips lie together, so its walk below reads them in order. The host
+// clears them before every batch.
 layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };
-layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };        // [z][y][x] of the slab
+layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };  // [z][y][x] of the slab
+layout(set = 0, binding = 6) uniform usamplerBuffer key_texels;     // `keys` again, for reading
+layout(set = 0, binding = 7) uniform usamplerBuffer column_frames;  // per column: bit s = frame s has room
+// Per column: the first and last layer with a flip (first > last: none, or skipped).
+layout(std430, set = 0, binding = 8) buffer Spans { ivec2 spans[]; };
+layout(std430, set = 0, binding = 9) buffer LargeBuckets { uint large_buckets[]; };  // FLIP_LARGE's
+layout(std430, set = 0, binding = 10) buffer HugeBuckets { uint huge_buckets[]; };   // FLIP_HUGE's
+// The host sets {0, 1, 1, 0} twice before every batch: each list's indirect dispatch (x, y, z), then
+// its length. x counts workgroups up to the group count limit; the stage loops past it.
+struct List {
+    uint groups_x, groups_y, groups_z, count;
+};
+layout(std430, set = 0, binding = 11) buffer Lists { List large_list; List huge_list; };
 
 layout(push_constant) uniform Params {
-    uint column_base;
-    uint column_count;
+    uint item_base;   // first column
+    uint item_count;
     uint columns;     // nx * ny
     uint frames;      // buckets per column
     int slab_layers;
     int bit_offset;   // bit of the batch's first frame inside the word
+    uint whole_word;  // 1: the batch holds every frame of the word
 } params;
+
+uint start_of(uint bucket) { return texelFetch(bucket_start, int(bucket)).x; }
+uint end_of(uint bucket) { return texelFetch(bucket_end, int(bucket)).x; }
 
 // Restores the max-heap below `root` in keys[start, start + n).
 void sift_down(uint start, uint root, uint n) {
@@ -71,51 +106,291 @@ void sort_bucket(uint start, uint n) {
     }
 }
 
-void main() {
-    if (gl_GlobalInvocationID.x >= params.column_count) return;
-    uint column = params.column_base + gl_GlobalInvocationID.x;
+// The column's crossings in this batch, when it has no more than MAX_COLUMN_CROSSINGS (more:
+// MAX_COLUMN_CROSSINGS + 1). Both flip stages skip a column with more the same way.
+uint column_crossings(uint column, uint with_room) {
     uint total = 0u;
-    for (uint s = 0u; s < params.frames; ++s) total += bucket_end[column * params.frames + s] - bucket_start[column * params.frames + s];
-    if (total == 0u) return;
-    if (total > MAX_COLUMN_CROSSINGS) {
-        atomicMax(most_column_crossings, total);
-        return;
+    for (uint pending = with_room; pending != 0u && total <= MAX_COLUMN_CROSSINGS; pending &= pending - 1u) {
+        uint bucket = column * params.frames + uint(findLSB(pending));
+        total += end_of(bucket) - start_of(bucket);
+    }
+    return min(total, MAX_COLUMN_CROSSINGS + 1u);
+}
+
+// One step of a bucket walk: `key` is the bucket's next key in order, `next` the one after it
+// (NO_KEY past the end), `valid` whether `key` is one. The winding number changes by each key;
+// once every key of a layer is in, the voxels above are inside when it is non-zero, and an
+// inside/outside switch is a flip of the frame's bit at that layer. The fast path keeps a flip's
+// layer in register f<flips> and writes the flips after the walk, in a loop only as long as the
+// subgroup's most flips: on lavapipe a buffer access in a branch costs a loop over the lanes
+// whether or not a lane takes it.
+#define WALK_REGISTER(key, next, valid)                                               \
+    {                                                                                 \
+        int layer = int((key) >> 1);                                                  \
+        winding += (valid) ? (((key) & 1u) != 0u ? 1 : -1) : 0;                       \
+        bool flip = (valid) && int((next) >> 1) != layer && (winding != 0) != inside; \
+        inside = inside != flip;                                                      \
+        f0 = flip && flips == 0u ? layer : f0;                                        \
+        f1 = flip && flips == 1u ? layer : f1;                                        \
+        f2 = flip && flips == 2u ? layer : f2;                                        \
+        f3 = flip && flips == 3u ? layer : f3;                                        \
+        f4 = flip && flips == 4u ? layer : f4;                                        \
+        f5 = flip && flips == 5u ? layer : f5;                                        \
+        f6 = flip && flips == 6u ? layer : f6;                                        \
+        f7 = flip && flips == 7u ? layer : f7;                                        \
+        flips += flip ? 1u : 0u;                                                      \
+    }
+#define ORDER(a, b)              \
+    {                            \
+        uint lower = min(a, b);  \
+        b = max(a, b);           \
+        a = lower;               \
     }
 
+// The XOR up the column over its flips, from layer `first` to `last`. A batch that holds a whole
+// occupancy word writes the mask outright; smaller batches OR their frames' bits into it.
+void write_column(uint column, int first, int last) {
+    uint flip_base = column * uint(params.slab_layers);
+    uint word = 0u;
+    if (params.whole_word != 0u) {
+        for (int z = first; z <= last; ++z) {
+            word ^= toggles[flip_base + uint(z)];
+            mask[uint(z) * params.columns + column] = word;
+        }
+    } else {
+        for (int z = first; z <= last; ++z) {
+            word ^= toggles[flip_base + uint(z)];
+            if (word != 0u) mask[uint(z) * params.columns + column] |= word;
+        }
+    }
+}
+
+void flip_small(uint column) {
+    uint with_room = texelFetch(column_frames, int(column)).x;
     int first = params.slab_layers, last = -1;
-    for (uint s = 0u; s < params.frames; ++s) {
-        uint start = bucket_start[column * params.frames + s];
-        uint n = bucket_end[column * params.frames + s] - start;
-        if (n == 0u) continue;
-        sort_bucket(start, n);
-        uint bit = 1u << (uint(params.bit_offset) + s);
+    uint total = 0u;
+    uint flip_base = column * uint(params.slab_layers);
+    // Only the frames with room in this column: most columns see the surface in few of them.
+    for (uint pending = with_room; pending != 0u; pending &= pending - 1u) {
+        uint s = uint(findLSB(pending));
+        uint start = start_of(column * params.frames + s);
+        uint n = end_of(column * params.frames + s) - start;
+        total += n;
+        if (n > REGISTER_KEYS) {  // the next stages'
+            uint bucket = column * params.frames + s;
+            if (n <= LARGE_KEYS) {
+                uint index = atomicAdd(large_list.count, 1u);
+                large_buckets[index] = bucket;
+                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(large_list.groups_x, 1u);
+            } else {
+                uint index = atomicAdd(huge_list.count, 1u);
+                huge_buckets[index] = bucket;
+                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(huge_list.groups_x, 1u);
+            }
+            continue;
+        }
+        // The key list ends in LARGE_KEYS spare slots, so the fetches past the bucket stay in the
+        // buffer; what they read is replaced by NO_KEY.
+        uint k0 = texelFetch(key_texels, int(start)).x, k1 = texelFetch(key_texels, int(start + 1u)).x;
+        uint k2 = texelFetch(key_texels, int(start + 2u)).x, k3 = texelFetch(key_texels, int(start + 3u)).x;
+        uint k4 = texelFetch(key_texels, int(start + 4u)).x, k5 = texelFetch(key_texels, int(start + 5u)).x;
+        uint k6 = texelFetch(key_texels, int(start + 6u)).x, k7 = texelFetch(key_texels, int(start + 7u)).x;
+        k0 = n > 0u ? k0 : NO_KEY;
+        k1 = n > 1u ? k1 : NO_KEY;
+        k2 = n > 2u ? k2 : NO_KEY;
+        k3 = n > 3u ? k3 : NO_KEY;
+        k4 = n > 4u ? k4 : NO_KEY;
+        k5 = n > 5u ? k5 : NO_KEY;
+        k6 = n > 6u ? k6 : NO_KEY;
+        k7 = n > 7u ? k7 : NO_KEY;
+        // An optimal sorting network for 8 keys (19 comparators).
+        ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7)
+        ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7)
+        ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7)
+        ORDER(k2, k4) ORDER(k3, k5)
+        ORDER(k1, k4) ORDER(k3, k6)
+        ORDER(k1, k2) ORDER(k3, k4) ORDER(k5, k6)
         int winding = 0;
         bool inside = false;
-        for (uint i = 0u; i < n; ++i) {
-            uint key = keys[start + i];
-            int layer = int(key >> 1);
-            winding += (key & 1u) != 0u ? 1 : -1;
-            // Decide once every crossing of this layer is in.
-            if (i + 1u < n && int(keys[start + i + 1u] >> 1) == layer) continue;
-            if ((winding != 0) != inside) {
-                inside = !inside;
-                toggles[column * uint(params.slab_layers) + uint(layer)] ^= bit;
-                first = min(first, layer);
-                last = max(last, layer);
-            }
+        uint flips = 0u;
+        int f0 = 0, f1 = 0, f2 = 0, f3 = 0, f4 = 0, f5 = 0, f6 = 0, f7 = 0;
+        WALK_REGISTER(k0, k1, n > 0u)
+        WALK_REGISTER(k1, k2, n > 1u)
+        WALK_REGISTER(k2, k3, n > 2u)
+        WALK_REGISTER(k3, k4, n > 3u)
+        WALK_REGISTER(k4, k5, n > 4u)
+        WALK_REGISTER(k5, k6, n > 5u)
+        WALK_REGISTER(k6, k7, n > 6u)
+        WALK_REGISTER(k7, NO_KEY, n > 7u)
+        uint bit = 1u << (uint(params.bit_offset) + s);
+        for (uint j = 0u; j < flips; ++j) {
+            int layer = j == 0u ? f0 : j == 1u ? f1 : j == 2u ? f2 : j == 3u ? f3 : j == 4u ? f4 : j == 5u ? f5 : j == 6u ? f6 : f7;
+            toggles[flip_base + uint(layer)] ^= bit;
+        }
+        if (flips > 0u) {
+            int top = flips == 1u ? f0 : flips == 2u ? f1 : flips == 3u ? f2 : flips == 4u ? f3 : flips == 5u ? f4 : flips == 6u ? f5 : flips == 7u ? f6 : f7;
+            first = min(first, f0);
+            last = max(last, top);
         }
         // Still inside after the last crossing (the closing ones lie above the slab): to the top.
         if (inside) last = params.slab_layers - 1;
     }
-
-    uint word = 0u;
-    uint flip_base = column * uint(params.slab_layers);
-    for (int z = first; z <= last; ++z) {
-        uint flips = toggles[flip_base + uint(z)];
-        if (flips != 0u) {
-            word ^= flips;
-            toggles[flip_base + uint(z)] = 0u;
-        }
-        if (word != 0u) mask[uint(z) * params.columns + column] |= word;
+    if (total > MAX_COLUMN_CROSSINGS) {
+        // Skipped: its flips are left for the next batch's clear, and nothing is written.
+        atomicMax(most_column_crossings, total);
+        first = params.slab_layers;
+        last = -1;
     }
+    spans[column] = ivec2(first, last);
+}
+
+// The bucket's i-th key, NO_KEY past its n keys.
+uint key_at(uint start, uint i, uint n) { return i < n ? texelFetch(key_texels, int(start + i)).x : NO_KEY; }
+
+// The register walk of FLIP_LARGE: as WALK_REGISTER, with flip i recorded as bit i of flip_bits.
+#define WALK_BIT(key, next, i)                                                         \
+    {                                                                                  \
+        bool valid = (i) < n;                                                          \
+        int layer = int((key) >> 1);                                                   \
+        winding += valid ? (((key) & 1u) != 0u ? 1 : -1) : 0;                         \
+        bool flip = valid && int((next) >> 1) != layer && (winding != 0) != inside;    \
+        inside = inside != flip;                                                       \
+        flip_bits |= flip ? 1u << (i) : 0u;                                            \
+    }
+// Key i of k0..k31, by a tree of selects: registers cannot be indexed.
+#define PICK32(i) (((i) & 16u) != 0u ? (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k31 : k30) : (((i) & 1u) != 0u ? k29 : k28)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k27 : k26) : (((i) & 1u) != 0u ? k25 : k24))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k23 : k22) : (((i) & 1u) != 0u ? k21 : k20)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k19 : k18) : (((i) & 1u) != 0u ? k17 : k16)))) : (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k15 : k14) : (((i) & 1u) != 0u ? k13 : k12)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k11 : k10) : (((i) & 1u) != 0u ? k9 : k8))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0)))))
+
+void flip_large(uint bucket) {
+    uint start = start_of(bucket);
+    uint n = end_of(bucket) - start;
+    uint column = bucket / params.frames;
+    if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
+    uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
+    uint k4 = key_at(start, 4u, n), k5 = key_at(start, 5u, n), k6 = key_at(start, 6u, n), k7 = key_at(start, 7u, n);
+    uint k8 = key_at(start, 8u, n), k9 = key_at(start, 9u, n), k10 = key_at(start, 10u, n), k11 = key_at(start, 11u, n);
+    uint k12 = key_at(start, 12u, n), k13 = key_at(start, 13u, n), k14 = key_at(start, 14u, n), k15 = key_at(start, 15u, n);
+    uint k16 = key_at(start, 16u, n), k17 = key_at(start, 17u, n), k18 = key_at(start, 18u, n), k19 = key_at(start, 19u, n);
+    uint k20 = key_at(start, 20u, n), k21 = key_at(start, 21u, n), k22 = key_at(start, 22u, n), k23 = key_at(start, 23u, n);
+    uint k24 = key_at(start, 24u, n), k25 = key_at(start, 25u, n), k26 = key_at(start, 26u, n), k27 = key_at(start, 27u, n);
+    uint k28 = key_at(start, 28u, n), k29 = key_at(start, 29u, n), k30 = key_at(start, 30u, n), k31 = key_at(start, 31u, n);
+    // Batcher's bitonic sorting network for 32 keys (240 comparators), merge by merge.
+    /* merge 2, stride 1 */
+    ORDER(k0, k1) ORDER(k3, k2) ORDER(k4, k5) ORDER(k7, k6) ORDER(k8, k9) ORDER(k11, k10) ORDER(k12, k13) ORDER(k15, k14)
+    ORDER(k16, k17) ORDER(k19, k18) ORDER(k20, k21) ORDER(k23, k22) ORDER(k24, k25) ORDER(k27, k26) ORDER(k28, k29) ORDER(k31, k30)
+    /* merge 4, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k6, k4) ORDER(k7, k5) ORDER(k8, k10) ORDER(k9, k11) ORDER(k14, k12) ORDER(k15, k13)
+    ORDER(k16, k18) ORDER(k17, k19) ORDER(k22, k20) ORDER(k23, k21) ORDER(k24, k26) ORDER(k25, k27) ORDER(k30, k28) ORDER(k31, k29)
+    /* merge 4, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k5, k4) ORDER(k7, k6) ORDER(k8, k9) ORDER(k10, k11) ORDER(k13, k12) ORDER(k15, k14)
+    ORDER(k16, k17) ORDER(k18, k19) ORDER(k21, k20) ORDER(k23, k22) ORDER(k24, k25) ORDER(k26, k27) ORDER(k29, k28) ORDER(k31, k30)
+    /* merge 8, stride 4 */
+    ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7) ORDER(k12, k8) ORDER(k13, k9) ORDER(k14, k10) ORDER(k15, k11)
+    ORDER(k16, k20) ORDER(k17, k21) ORDER(k18, k22) ORDER(k19, k23) ORDER(k28, k24) ORDER(k29, k25) ORDER(k30, k26) ORDER(k31, k27)
+    /* merge 8, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7) ORDER(k10, k8) ORDER(k11, k9) ORDER(k14, k12) ORDER(k15, k13)
+    ORDER(k16, k18) ORDER(k17, k19) ORDER(k20, k22) ORDER(k21, k23) ORDER(k26, k24) ORDER(k27, k25) ORDER(k30, k28) ORDER(k31, k29)
+    /* merge 8, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7) ORDER(k9, k8) ORDER(k11, k10) ORDER(k13, k12) ORDER(k15, k14)
+    ORDER(k16, k17) ORDER(k18, k19) ORDER(k20, k21) ORDER(k22, k23) ORDER(k25, k24) ORDER(k27, k26) ORDER(k29, k28) ORDER(k31, k30)
+    /* merge 16, stride 8 */
+    ORDER(k0, k8) ORDER(k1, k9) ORDER(k2, k10) ORDER(k3, k11) ORDER(k4, k12) ORDER(k5, k13) ORDER(k6, k14) ORDER(k7, k15)
+    ORDER(k24, k16) ORDER(k25, k17) ORDER(k26, k18) ORDER(k27, k19) ORDER(k28, k20) ORDER(k29, k21) ORDER(k30, k22) ORDER(k31, k23)
+    /* merge 16, stride 4 */
+    ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7) ORDER(k8, k12) ORDER(k9, k13) ORDER(k10, k14) ORDER(k11, k15)
+    ORDER(k20, k16) ORDER(k21, k17) ORDER(k22, k18) ORDER(k23, k19) ORDER(k28, k24) ORDER(k29, k25) ORDER(k30, k26) ORDER(k31, k27)
+    /* merge 16, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7) ORDER(k8, k10) ORDER(k9, k11) ORDER(k12, k14) ORDER(k13, k15)
+    ORDER(k18, k16) ORDER(k19, k17) ORDER(k22, k20) ORDER(k23, k21) ORDER(k26, k24) ORDER(k27, k25) ORDER(k30, k28) ORDER(k31, k29)
+    /* merge 16, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7) ORDER(k8, k9) ORDER(k10, k11) ORDER(k12, k13) ORDER(k14, k15)
+    ORDER(k17, k16) ORDER(k19, k18) ORDER(k21, k20) ORDER(k23, k22) ORDER(k25, k24) ORDER(k27, k26) ORDER(k29, k28) ORDER(k31, k30)
+    /* merge 32, stride 16 */
+    ORDER(k0, k16) ORDER(k1, k17) ORDER(k2, k18) ORDER(k3, k19) ORDER(k4, k20) ORDER(k5, k21) ORDER(k6, k22) ORDER(k7, k23)
+    ORDER(k8, k24) ORDER(k9, k25) ORDER(k10, k26) ORDER(k11, k27) ORDER(k12, k28) ORDER(k13, k29) ORDER(k14, k30) ORDER(k15, k31)
+    /* merge 32, stride 8 */
+    ORDER(k0, k8) ORDER(k1, k9) ORDER(k2, k10) ORDER(k3, k11) ORDER(k4, k12) ORDER(k5, k13) ORDER(k6, k14) ORDER(k7, k15)
+    ORDER(k16, k24) ORDER(k17, k25) ORDER(k18, k26) ORDER(k19, k27) ORDER(k20, k28) ORDER(k21, k29) ORDER(k22, k30) ORDER(k23, k31)
+    /* merge 32, stride 4 */
+    ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7) ORDER(k8, k12) ORDER(k9, k13) ORDER(k10, k14) ORDER(k11, k15)
+    ORDER(k16, k20) ORDER(k17, k21) ORDER(k18, k22) ORDER(k19, k23) ORDER(k24, k28) ORDER(k25, k29) ORDER(k26, k30) ORDER(k27, k31)
+    /* merge 32, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7) ORDER(k8, k10) ORDER(k9, k11) ORDER(k12, k14) ORDER(k13, k15)
+    ORDER(k16, k18) ORDER(k17, k19) ORDER(k20, k22) ORDER(k21, k23) ORDER(k24, k26) ORDER(k25, k27) ORDER(k28, k30) ORDER(k29, k31)
+    /* merge 32, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7) ORDER(k8, k9) ORDER(k10, k11) ORDER(k12, k13) ORDER(k14, k15)
+    ORDER(k16, k17) ORDER(k18, k19) ORDER(k20, k21) ORDER(k22, k23) ORDER(k24, k25) ORDER(k26, k27) ORDER(k28, k29) ORDER(k30, k31)
+    int winding = 0;
+    bool inside = false;
+    uint flip_bits = 0u;
+    WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
+    WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, k8, 7u)
+    WALK_BIT(k8, k9, 8u) WALK_BIT(k9, k10, 9u) WALK_BIT(k10, k11, 10u) WALK_BIT(k11, k12, 11u)
+    WALK_BIT(k12, k13, 12u) WALK_BIT(k13, k14, 13u) WALK_BIT(k14, k15, 14u) WALK_BIT(k15, k16, 15u)
+    WALK_BIT(k16, k17, 16u) WALK_BIT(k17, k18, 17u) WALK_BIT(k18, k19, 18u) WALK_BIT(k19, k20, 19u)
+    WALK_BIT(k20, k21, 20u) WALK_BIT(k21, k22, 21u) WALK_BIT(k22, k23, 22u) WALK_BIT(k23, k24, 23u)
+    WALK_BIT(k24, k25, 24u) WALK_BIT(k25, k26, 25u) WALK_BIT(k26, k27, 26u) WALK_BIT(k27, k28, 27u)
+    WALK_BIT(k28, k29, 28u) WALK_BIT(k29, k30, 29u) WALK_BIT(k30, k31, 30u) WALK_BIT(k31, NO_KEY, 31u)
+    if (flip_bits == 0u) return;
+    uint bit = 1u << (uint(params.bit_offset) + bucket % params.frames);
+    uint flip_base = column * uint(params.slab_layers);
+    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {
+        uint i = uint(findLSB(pending));
+        atomicXor(toggles[flip_base + (PICK32(i) >> 1)], bit);
+    }
+    uint i = uint(findLSB(flip_bits));
+    int first = int(PICK32(i) >> 1);
+    i = uint(findMSB(flip_bits));
+    // Still inside after the last crossing (the closing ones lie above the slab): to the top.
+    int last = inside ? params.slab_layers - 1 : int(PICK32(i) >> 1);
+    atomicMin(spans[column].x, first);
+    atomicMax(spans[column].y, last);
+}
+
+void flip_huge(uint bucket) {
+    uint start = start_of(bucket);
+    uint n = end_of(bucket) - start;
+    uint column = bucket / params.frames;
+    if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
+    sort_bucket(start, n);
+    uint bit = 1u << (uint(params.bit_offset) + bucket % params.frames);
+    uint flip_base = column * uint(params.slab_layers);
+    int first = params.slab_layers, last = -1;
+    int winding = 0;
+    bool inside = false;
+    for (uint i = 0u; i < n; ++i) {
+        uint key = keys[start + i];
+        int layer = int(key >> 1);
+        winding += (key & 1u) != 0u ? 1 : -1;
+        // Decide once every crossing of this layer is in.
+        if (i + 1u < n && int(keys[start + i + 1u] >> 1) == layer) continue;
+        if ((winding != 0) != inside) {
+            inside = !inside;
+            atomicXor(toggles[flip_base + uint(layer)], bit);
+            first = min(first, layer);
+            last = max(last, layer);
+        }
+    }
+    if (inside) last = params.slab_layers - 1;
+    if (first <= last) {
+        atomicMin(spans[column].x, first);
+        atomicMax(spans[column].y, last);
+    }
+}
+
+void main() {
+    // The listed stages run as many workgroups as FLIP_SMALL counted, up to MAX_GROUPS, and step
+    // over the rest of their list.
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    if (STAGE == FLIP_LARGE) {
+        for (uint i = gl_GlobalInvocationID.x; i < large_list.count; i += stride) flip_large(large_buckets[i]);
+        return;
+    }
+    if (STAGE == FLIP_HUGE) {
+        for (uint i = gl_GlobalInvocationID.x; i < huge_list.count; i += stride) flip_huge(huge_buckets[i]);
+        return;
+    }
+    if (gl_GlobalInvocationID.x >= params.item_count) return;
+    uint item = params.item_base + gl_GlobalInvocationID.x;
+    if (STAGE == FLIP_SMALL) flip_small(item);
+    else write_column(item, spans[item].x, spans[item].y);
 }

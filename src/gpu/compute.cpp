@@ -12,7 +12,8 @@ namespace {
 vk::raii::Buffer make_buffer(Context& context, vk::DeviceSize size) {
     return vk::raii::Buffer(context.device(), vk::BufferCreateInfo{
         .size = size,
-        .usage = vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eTransferSrc |
+        .usage = vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eUniformTexelBuffer |
+                 vk::BufferUsageFlagBits::eIndirectBuffer | vk::BufferUsageFlagBits::eTransferSrc |
                  vk::BufferUsageFlagBits::eTransferDst,
         .sharingMode = vk::SharingMode::eExclusive});
 }
@@ -58,19 +59,36 @@ std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::
     return buffer;
 }
 
+namespace {
+
+vk::DescriptorType descriptor_type(Binding binding) {
+    return binding == Binding::Storage ? vk::DescriptorType::eStorageBuffer : vk::DescriptorType::eUniformTexelBuffer;
+}
+
+}  // namespace
+
 Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint32_t buffer_count,
                std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation)
+    : Kernel(context, spirv, std::vector<Binding>(buffer_count, Binding::Storage), push_constant_bytes, std::move(specialisation)) {}
+
+Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::vector<Binding> kinds,
+               std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation)
     : context_(context),
+      bindings_(std::move(kinds)),
       specialisation_(std::move(specialisation)),
       push_constant_bytes_(push_constant_bytes),
       set_layout_(nullptr),
       pipeline_layout_(nullptr),
       pool_(nullptr),
       pipeline_(nullptr) {
+    const auto buffer_count = std::uint32_t(bindings_.size());
     std::vector<vk::DescriptorSetLayoutBinding> bindings;
-    for (std::uint32_t b = 0; b < buffer_count; ++b)
-        bindings.push_back({.binding = b, .descriptorType = vk::DescriptorType::eStorageBuffer, .descriptorCount = 1,
+    std::uint32_t storage_count = 0;
+    for (std::uint32_t b = 0; b < buffer_count; ++b) {
+        bindings.push_back({.binding = b, .descriptorType = descriptor_type(bindings_[b]), .descriptorCount = 1,
                             .stageFlags = vk::ShaderStageFlagBits::eCompute});
+        storage_count += bindings_[b] == Binding::Storage ? 1 : 0;
+    }
     set_layout_ = vk::raii::DescriptorSetLayout(
         context.device(), vk::DescriptorSetLayoutCreateInfo{.bindingCount = buffer_count, .pBindings = bindings.data()});
     vk::PushConstantRange range{.stageFlags = vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_constant_bytes};
@@ -80,10 +98,15 @@ Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint
                                                        .pushConstantRangeCount = push_constant_bytes ? 1u : 0u,
                                                        .pPushConstantRanges = &range});
     constexpr std::uint32_t kMaxSets = 16;
-    vk::DescriptorPoolSize pool_size{.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = kMaxSets * buffer_count};
-    pool_ = vk::raii::DescriptorPool(context.device(),
-                                     vk::DescriptorPoolCreateInfo{.flags = vk::DescriptorPoolCreateFlagBits::eFreeDescriptorSet,
-                                                                  .maxSets = kMaxSets, .poolSizeCount = 1, .pPoolSizes = &pool_size});
+    std::vector<vk::DescriptorPoolSize> pool_sizes;
+    if (storage_count) pool_sizes.push_back({.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = kMaxSets * storage_count});
+    if (storage_count < buffer_count)
+        pool_sizes.push_back({.type = vk::DescriptorType::eUniformTexelBuffer, .descriptorCount = kMaxSets * (buffer_count - storage_count)});
+    pool_ = vk::raii::DescriptorPool(context.device(), vk::DescriptorPoolCreateInfo{
+                                                           .flags = vk::DescriptorPoolCreateFlagBits::eFreeDescriptorSet,
+                                                           .maxSets = kMaxSets,
+                                                           .poolSizeCount = std::uint32_t(pool_sizes.size()),
+                                                           .pPoolSizes = pool_sizes.data()});
 
     vk::raii::ShaderModule module(context.device(),
                                   vk::ShaderModuleCreateInfo{.codeSize = spirv.size_bytes(), .pCode = spirv.data()});
@@ -98,19 +121,42 @@ Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint
     pipeline_ = vk::raii::Pipeline(context.device(), nullptr, info);
 }
 
-vk::raii::DescriptorSet Kernel::bind(const std::vector<const Buffer*>& buffers) {
+BoundBuffers Kernel::bind(const std::vector<const Buffer*>& buffers) {
+    if (buffers.size() != bindings_.size())
+        throw Error(fmt::format("internal: a kernel with {} bindings was given {} buffers", bindings_.size(), buffers.size()));
     vk::DescriptorSetLayout layouts[] = {*set_layout_};
     vk::raii::DescriptorSets sets(context_.device(),
                                   vk::DescriptorSetAllocateInfo{.descriptorPool = *pool_, .descriptorSetCount = 1, .pSetLayouts = layouts});
-    vk::raii::DescriptorSet set = std::move(sets.front());
-    std::vector<vk::DescriptorBufferInfo> infos;
-    for (const Buffer* b : buffers) infos.push_back({.buffer = b->handle(), .offset = 0, .range = b->size()});
+    BoundBuffers bound{std::move(sets.front()), {}};
+    // Every info and view first, so the writes below can point at them.
+    std::vector<vk::DescriptorBufferInfo> infos(buffers.size());
+    std::vector<vk::BufferView> view_handles(buffers.size());
+    for (std::size_t i = 0; i < buffers.size(); ++i) {
+        const Buffer& b = *buffers[i];
+        if (bindings_[i] == Binding::Storage) {
+            infos[i] = vk::DescriptorBufferInfo{.buffer = b.handle(), .offset = 0, .range = b.size()};
+            continue;
+        }
+        const bool wide = bindings_[i] == Binding::Texels128;
+        const vk::DeviceSize texel = wide ? 16 : 4;
+        bound.views.emplace_back(context_.device(), vk::BufferViewCreateInfo{
+                                                        .buffer = b.handle(),
+                                                        .format = wide ? vk::Format::eR32G32B32A32Sint : vk::Format::eR32Uint,
+                                                        .offset = 0,
+                                                        .range = b.size() / texel * texel});
+        view_handles[i] = *bound.views.back();
+    }
     std::vector<vk::WriteDescriptorSet> writes;
-    for (std::uint32_t i = 0; i < infos.size(); ++i)
-        writes.push_back({.dstSet = *set, .dstBinding = i, .descriptorCount = 1,
-                          .descriptorType = vk::DescriptorType::eStorageBuffer, .pBufferInfo = &infos[i]});
+    for (std::uint32_t i = 0; i < buffers.size(); ++i) {
+        vk::WriteDescriptorSet write{.dstSet = *bound.set, .dstBinding = i, .descriptorCount = 1, .descriptorType = descriptor_type(bindings_[i])};
+        if (bindings_[i] == Binding::Storage)
+            write.pBufferInfo = &infos[i];
+        else
+            write.pTexelBufferView = &view_handles[i];
+        writes.push_back(write);
+    }
     context_.device().updateDescriptorSets(writes, nullptr);
-    return set;
+    return bound;
 }
 
 Sequence::Sequence(Context& context)
@@ -130,10 +176,10 @@ void Sequence::fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pa
     commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), pattern);
 }
 
-void Sequence::dispatch_raw(Kernel& kernel, const vk::raii::DescriptorSet& set, void* push, std::uint32_t bytes,
+void Sequence::dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes,
                             std::uint32_t invocations) {
     commands_.bindPipeline(vk::PipelineBindPoint::eCompute, *kernel.pipeline_);
-    commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set}, nullptr);
+    commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set.set}, nullptr);
     const std::uint32_t group = kernel.workgroup_size();
     const std::uint32_t max_groups = std::min<std::uint32_t>(context_.selected().max_workgroup_count_x, 65535u);
     const std::uint32_t per_dispatch = max_groups * group;
@@ -149,13 +195,24 @@ void Sequence::dispatch_raw(Kernel& kernel, const vk::raii::DescriptorSet& set, 
     }
 }
 
+void Sequence::dispatch_indirect_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes, const Buffer& args,
+                                     vk::DeviceSize offset) {
+    commands_.bindPipeline(vk::PipelineBindPoint::eCompute, *kernel.pipeline_);
+    commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set.set}, nullptr);
+    commands_.pushConstants<std::uint8_t>(*kernel.pipeline_layout_, vk::ShaderStageFlagBits::eCompute, 0,
+                                          std::span(static_cast<const std::uint8_t*>(push), bytes));
+    commands_.dispatchIndirect(args.handle(), offset);
+}
+
 void Sequence::barrier() {
     vk::MemoryBarrier memory{.srcAccessMask = vk::AccessFlagBits::eShaderWrite | vk::AccessFlagBits::eTransferWrite,
                              .dstAccessMask = vk::AccessFlagBits::eShaderRead | vk::AccessFlagBits::eShaderWrite |
-                                              vk::AccessFlagBits::eTransferRead | vk::AccessFlagBits::eTransferWrite};
+                                              vk::AccessFlagBits::eTransferRead | vk::AccessFlagBits::eTransferWrite |
+                                              vk::AccessFlagBits::eIndirectCommandRead};
     commands_.pipelineBarrier(vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer,
-                              vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer, {}, memory,
-                              nullptr, nullptr);
+                              vk::PipelineStageFlagBits::eComputeShader | vk::PipelineStageFlagBits::eTransfer |
+                                  vk::PipelineStageFlagBits::eDrawIndirect,
+                              {}, memory, nullptr, nullptr);
 }
 
 void Sequence::barrier_to_host() {

@@ -44,19 +44,38 @@ void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk:
 // A new host buffer holding a copy of `bytes` bytes at `data`.
 std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes);
 
+// How a shader sees one binding. Texel views read through the sampler path: on lavapipe a
+// storage-buffer access runs lane by lane, a texel fetch gathers all lanes at once.
+enum class Binding {
+    Storage,    // layout(std430) buffer
+    Texels32,   // uniform usamplerBuffer: one uint per texel
+    Texels128,  // uniform isamplerBuffer: one ivec4 per texel
+};
+
+// A kernel's buffers bound for dispatches: the descriptor set and the texel views it refers to.
+struct BoundBuffers {
+    vk::raii::DescriptorSet set;
+    std::vector<vk::raii::BufferView> views;
+};
+
 class Kernel {
 public:
     // `buffer_count` storage buffers at bindings 0..n-1 of set 0; specialisation constant i is
     // `specialisation[i]` (constant 0 is the workgroup size by convention of our shaders).
     Kernel(Context& context, std::span<const std::uint32_t> spirv, std::uint32_t buffer_count,
            std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation);
+    // Binding i of set 0 is `bindings[i]`.
+    Kernel(Context& context, std::span<const std::uint32_t> spirv, std::vector<Binding> bindings,
+           std::uint32_t push_constant_bytes, std::vector<std::uint32_t> specialisation);
 
     std::uint32_t workgroup_size() const { return specialisation_.at(0); }
-    vk::raii::DescriptorSet bind(const std::vector<const Buffer*>& buffers);
+    // Buffer i goes to binding i; a buffer may appear at several bindings (as storage and as texels).
+    BoundBuffers bind(const std::vector<const Buffer*>& buffers);
 
 private:
     friend class Sequence;
     Context& context_;
+    std::vector<Binding> bindings_;
     std::vector<std::uint32_t> specialisation_;
     std::uint32_t push_constant_bytes_;
     vk::raii::DescriptorSetLayout set_layout_;
@@ -74,18 +93,28 @@ public:
     // Dispatches `invocations` invocations in as many dispatches as the device's group-count limit
     // needs. `push` must start with two uint32 (base, count), which this fills in per dispatch.
     template <typename Push>
-    void dispatch(Kernel& kernel, const vk::raii::DescriptorSet& set, Push push, std::uint32_t invocations) {
+    void dispatch(Kernel& kernel, const BoundBuffers& set, Push push, std::uint32_t invocations) {
         static_assert(sizeof(Push) >= 8 && sizeof(Push) % 4 == 0);
         dispatch_raw(kernel, set, &push, sizeof(Push), invocations);
     }
-    // Makes everything written so far (fills, shader writes) visible to later shaders and transfers.
+    // Dispatches as many workgroups as the uint32 at `offset` in `args` says (followed by the y
+    // and z counts, 1 and 1), a count a shader wrote. `push` as for dispatch, base and count 0.
+    template <typename Push>
+    void dispatch_indirect(Kernel& kernel, const BoundBuffers& set, Push push, const Buffer& args, vk::DeviceSize offset) {
+        static_assert(sizeof(Push) >= 8 && sizeof(Push) % 4 == 0);
+        dispatch_indirect_raw(kernel, set, &push, sizeof(Push), args, offset);
+    }
+    // Makes everything written so far (fills, shader writes) visible to later shaders, transfers
+    // and indirect dispatches.
     void barrier();
     // Makes shader writes visible to the host after submit_and_wait.
     void barrier_to_host();
     void submit_and_wait();
 
 private:
-    void dispatch_raw(Kernel& kernel, const vk::raii::DescriptorSet& set, void* push, std::uint32_t bytes,
+    void dispatch_indirect_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes, const Buffer& args,
+                               vk::DeviceSize offset);
+    void dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes,
                       std::uint32_t invocations);
     Context& context_;
     vk::raii::CommandPool pool_;

@@ -390,7 +390,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
                 sequence.fill(*flags, live.size() * std::uint64_t(words) * 4, 0u);
                 // The clear must land before the test ORs its flags in.
                 sequence.barrier();
-                const vk::raii::DescriptorSet set = overlap_.bind(
+                const BoundBuffers set = overlap_.bind(
                     {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
                      implicit ? &no_poses : poses.get(), flags.get(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses,
                      test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses});
@@ -614,7 +614,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
             runs.reserve(total_runs);
             for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
             stats_.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
-            std::optional<vk::raii::DescriptorSet> set;  // lives until the submit below has finished
+            std::optional<BoundBuffers> set;  // lives until the submit below has finished
             if (!runs.empty()) {
                 // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
                 const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;

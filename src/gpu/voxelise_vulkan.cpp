@@ -25,6 +25,7 @@ struct RasterParams {
 struct ColumnParams {
     std::uint32_t column_base, column_count, columns, frames;
     std::int32_t slab_layers, bit_offset;
+    std::uint32_t whole_word;
 };
 
 // A closed frame's triangles that a vertical ray can cross, with the columns their bounding boxes
@@ -41,13 +42,24 @@ void for_each_crossable(const PreparedFrame& frame, int nx, int ny, Visit&& visi
     }
 }
 
+// voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
+// again (as texels), frames with room per column, spans, large and huge buckets, their lists.
+std::vector<Binding> column_bindings() {
+    return {Binding::Storage, Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage,
+            Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage};
+}
+
 }  // namespace
 
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
-      raster_(context, voxel_raster_spv, 4, sizeof(RasterParams), {kWorkgroup, kTile}),
-      columns_(context, voxel_columns_spv, 6, sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings}) {}
+      raster_(context, voxel_raster_spv, {Binding::Texels128, Binding::Texels32, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
+              {kWorkgroup, kTile}),
+      flip_small_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 0u}),
+      flip_large_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 1u}),
+      flip_huge_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 2u}),
+      write_columns_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 3u}) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -68,7 +80,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                                 nx, ny, double(layer_bytes) / (1 << 20), double(budget) / (1 << 20)));
 
     // Upper bound on the crossing keys of each frame: the columns its triangles' boxes cover.
-    const std::uint64_t key_limit = budget / 4;
+    // The key list ends in kKeyPadding spare slots: the column pass fetches a small bucket's keys
+    // as a whole register set, past the bucket's end.
+    const std::uint64_t key_limit = budget / 4 - kKeyPadding;
     std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0);
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
@@ -129,19 +143,26 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     } release{b};
     ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
     ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.bucket_start, bucket_bytes, Buffer::Memory::Host);
+    // One start more than there are buckets: the end of the last one, so every column's room is
+    // the difference of two starts.
+    ensure_capacity(context_, b.bucket_start, bucket_bytes + 4, Buffer::Memory::Host);
     ensure_capacity(context_, b.bucket_cursor, bucket_bytes, Buffer::Memory::Host);
-    ensure_capacity(context_, b.keys, std::max<std::uint64_t>(plan_.key_capacity, 1) * 4, Buffer::Memory::Device);
+    ensure_capacity(context_, b.keys, (plan_.key_capacity + kKeyPadding) * 4, Buffer::Memory::Device);
     ensure_capacity(context_, b.overflow, 4, Buffer::Memory::Host);
+    ensure_capacity(context_, b.column_frames, layer_bytes, Buffer::Memory::Host);
+    ensure_capacity(context_, b.spans, layer_bytes * 2, Buffer::Memory::Device);
+    ensure_capacity(context_, b.large_buckets, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.huge_buckets, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.lists, 32, Buffer::Memory::Host);
     Buffer &mask = *b.mask, &toggles = *b.toggles, &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys;
     Buffer& overflow = *b.overflow;
+    Buffer& column_frames = *b.column_frames;
+    Buffer &spans = *b.spans, &large_buckets = *b.large_buckets, &huge_buckets = *b.huge_buckets, &lists = *b.lists;
     std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
     most_column_crossings = 0;
     std::unique_ptr<Buffer>& triangles = b.triangles;
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
-    // Cleared once: afterwards the column pass resets every flip word it consumes.
-    sequence.fill(toggles, slab_bytes, 0u);
 
     // Host side of a batch: its triangles, one work item per (triangle, covered tile), and each
     // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
@@ -199,26 +220,51 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     // Stretches in bucket order; every cursor starts at its bucket's start.
                     std::uint32_t* starts = bucket_start.mapped<std::uint32_t>().data();
                     std::uint32_t* cursors = bucket_cursor.mapped<std::uint32_t>().data();
+                    // Each column's frames with room.
+                    std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
                     std::uint32_t next = 0;
-                    for (std::size_t bucket = 0; bucket < bucket_room.size(); ++bucket) {
-                        starts[bucket] = cursors[bucket] = next;
-                        next += bucket_room[bucket];
+                    for (std::uint32_t column = 0, bucket = 0; column < columns; ++column) {
+                        std::uint32_t with_room = 0;
+                        for (int slot = 0; slot < batch_frames; ++slot, ++bucket) {
+                            starts[bucket] = cursors[bucket] = next;
+                            next += bucket_room[bucket];
+                            with_room |= bucket_room[bucket] != 0 ? 1u << slot : 0u;
+                        }
+                        frames_with_room[column] = with_room;
+                    }
+                    starts[bucket_room.size()] = next;
+                    // Both lists empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
+                    std::uint32_t* list_heads = lists.mapped<std::uint32_t>().data();
+                    for (int list = 0; list < 2; ++list) {
+                        list_heads[4 * list] = 0;
+                        list_heads[4 * list + 1] = list_heads[4 * list + 2] = 1;
+                        list_heads[4 * list + 3] = 0;
                     }
                 }
                 auto raster_set = raster_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
-                auto columns_set = columns_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask});
+                auto columns_set = flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
+                                                  &large_buckets, &huge_buckets, &lists});
                 const auto items = std::uint32_t(batch_items.size() / 2);
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
 
-                // The clears, or the previous batch's resets and its last reads of the keys, must
-                // be done before this batch writes keys (the host wrote the cursors after the fence).
+                // The previous batch's last reads of the flips and keys must be done before they
+                // are cleared and rewritten (the host wrote the cursors after the fence).
                 sequence.barrier();
+                sequence.fill(toggles, slab_bytes, 0u);
                 sequence.dispatch(raster_, raster_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
-                sequence.dispatch(columns_, columns_set,
-                                  ColumnParams{0, 0, columns, std::uint32_t(batch_frames), slab_layers, batch_first - word_first},
-                                  columns);
+                const ColumnParams column_params{0, 0, columns, std::uint32_t(batch_frames), slab_layers, batch_first - word_first,
+                                                 std::uint32_t(batch_first == word_first && batch_frames == word_last - word_first)};
+                sequence.dispatch(flip_small_, columns_set, column_params, columns);
+                // The small buckets' flips and spans, and the lists of larger ones, must be in place
+                // before the larger ones' atomics add theirs (the two lists' buckets are apart).
+                sequence.barrier();
+                sequence.dispatch_indirect(flip_large_, columns_set, column_params, lists, 0);
+                sequence.dispatch_indirect(flip_huge_, columns_set, column_params, lists, 16);
+                // Every flip and span must be in place before the columns are written.
+                sequence.barrier();
+                sequence.dispatch(write_columns_, columns_set, column_params, columns);
                 // The host reads the overflow value after the fence; the next batch reuses the
                 // host-written triangle buffers, so this one must finish first.
                 sequence.barrier_to_host();

@@ -3,10 +3,14 @@
 //   the host         gives every bucket (voxel column, frame) a stretch of one key list, with room
 //                    for one key per triangle of that frame whose bounding box holds the column;
 //   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
-//   voxel_columns.comp per column: sorts each bucket, flips the frame's bit wherever its winding
-//                    number switches between zero and non-zero, and runs an XOR up the column
-//                    over the flips: the occupancy words.
+//   voxel_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
+//                    switches between zero and non-zero, and runs an XOR up each column over the
+//                    flips: the occupancy words. Three stages sort buckets by size (in registers
+//                    up to 8 and up to 32 keys, in the key list beyond), a fourth writes.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
+// Lavapipe runs a storage-buffer access or an atomic as a loop over the lanes, taken or not, and a
+// texel fetch as one gather; so read-only inputs are texel views, and buffer accesses sit outside
+// branches where the lanes differ.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -46,6 +50,9 @@ public:
 
     static constexpr int kTile = 16;            // columns per tile side: <= 256 column tests per raster invocation
     static constexpr int kWorkgroup = 64;
+    static constexpr std::uint32_t kRegisterKeys = 8;  // voxel_columns.comp's REGISTER_KEYS
+    static constexpr std::uint32_t kLargeKeys = 32;    // voxel_columns.comp's LARGE_KEYS
+    static constexpr std::uint64_t kKeyPadding = kLargeKeys;
     // Layers per slab at most: with its sorts (about 12k iterations for 1024 crossings)
     // voxel_columns.comp stays under half lavapipe's silent loop cap of about 65k.
     static constexpr int kMaxSlabLayers = 16384;
@@ -54,14 +61,20 @@ private:
     Context& context_;
     VoxeliserOptions options_;
     Kernel raster_;
-    Kernel columns_;
+    Kernel flip_small_;     // voxel_columns.comp, stage FLIP_SMALL
+    Kernel flip_large_;     // voxel_columns.comp, stage FLIP_LARGE
+    Kernel flip_huge_;      // voxel_columns.comp, stage FLIP_HUGE
+    Kernel write_columns_;  // voxel_columns.comp, stage WRITE
     Plan plan_;
     // Scratch kept between calls while it stays under kKeptBytes in all.
     static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
     struct Buffers {
-        std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow;
+        std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow, column_frames, spans, large_buckets, huge_buckets, lists;
         std::unique_ptr<Buffer> triangles, work_items;
-        std::array<std::unique_ptr<Buffer>*, 8> all() { return {&mask, &toggles, &bucket_start, &bucket_cursor, &keys, &overflow, &triangles, &work_items}; }
+        std::array<std::unique_ptr<Buffer>*, 13> all() {
+            return {&mask,  &toggles,       &bucket_start, &bucket_cursor, &keys,      &overflow,   &column_frames,
+                    &spans, &large_buckets, &huge_buckets, &lists,         &triangles, &work_items};
+        }
     };
     Buffers buffers_;
 };
