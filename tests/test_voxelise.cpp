@@ -1,4 +1,5 @@
 // The GPU voxeliser against the plain CPU reference, bit for bit, and both against geometry.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -168,25 +169,35 @@ TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
     }
 }
 
-// Ten stacked slabs cross their shared columns 20 times per frame: more than the insertion sort
-// takes, so the column kernel's heap sort orders every bucket. 40 frames fill a whole word and
-// spill into a second one; the slabs thicken frame by frame so no two frames agree.
+// Stacked slabs cross their shared columns twice each per frame. Ten slabs (20 crossings) put
+// every bucket beyond the register sort of 8 keys into the bitonic one of 32; twenty slabs (40)
+// beyond that into the sort in the key list (heap sort past 12 keys). Half of the columns of
+// each stack hold half as many slabs, so both kinds of bucket meet in one batch. The triangles
+// are shuffled, so the crossings reach their buckets in every order the sorts must handle. 40
+// frames fill a whole word and spill into a second one; the slabs thicken frame by frame so no
+// two frames agree.
 TEST(Voxelise, ManyCrossingsPerColumnSortAndMatchReference) {
-    std::vector<TriangleMesh> frames;
-    for (int f = 0; f < 40; ++f) {
-        TriangleMesh stack;
-        for (int k = 0; k < 10; ++k)
-            stack.append(shapes::box({0.0, 0.0, 0.06 * k}, {0.3, 0.25, 0.06 * k + 0.02 + 0.0005 * f}));
-        frames.push_back(stack);
+    std::mt19937 rng(99);
+    for (int slabs : {10, 20}) {
+        std::vector<TriangleMesh> frames;
+        for (int f = 0; f < 40; ++f) {
+            TriangleMesh stack;
+            for (int k = 0; k < slabs; ++k)
+                stack.append(shapes::box({0.0, 0.0, 0.06 * k}, {k % 2 ? 0.15 : 0.3, 0.25, 0.06 * k + 0.02 + 0.0005 * f}));
+            std::shuffle(stack.triangles.begin(), stack.triangles.end(), rng);
+            frames.push_back(stack);
+        }
+        auto both = voxelise_both(prepare_voxelisation(sequence_of(frames), 0.005));
+        expect_identical(both);
+        // Twenty slabs over a whole word's 32 frames cross a column 1280 times, more than the 1024
+        // the column pass takes: that word is redone in two halves.
+        EXPECT_EQ(both.plan.overflow_retries, slabs == 20 ? 1 : 0);
+        // A column crossing every slab: each 4 layers thick in frame 0.
+        auto grid = both.gpu.grid();
+        int cx = int((0.07 - grid.origin.x()) / 0.005), cy = int((0.12 - grid.origin.y()) / 0.005), layers = 0;
+        for (int z = 0; z < grid.dims[2]; ++z) layers += both.gpu.occupied(grid.index(cx, cy, z), 0);
+        EXPECT_EQ(layers, 4 * slabs) << slabs << " slabs";
     }
-    auto both = voxelise_both(prepare_voxelisation(sequence_of(frames), 0.005));
-    expect_identical(both);
-    EXPECT_EQ(both.plan.overflow_retries, 0);
-    // A column away from the edges: ten slabs, each 4 layers thick in frame 0.
-    auto grid = both.gpu.grid();
-    int cx = int((0.15 - grid.origin.x()) / 0.005), cy = int((0.12 - grid.origin.y()) / 0.005), layers = 0;
-    for (int z = 0; z < grid.dims[2]; ++z) layers += both.gpu.occupied(grid.index(cx, cy, z), 0);
-    EXPECT_EQ(layers, 40);
 }
 
 // A batch whose column has more crossings than the column kernel sorts is redone with fewer
