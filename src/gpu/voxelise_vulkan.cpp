@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
 
@@ -171,26 +172,49 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::vector<GpuTriangle> batch_triangles;
     std::vector<std::uint32_t> batch_items;  // pairs (triangle, tile x | tile y << 16)
     std::vector<std::uint32_t> bucket_room;
+    // Gathered in parts of 16 frames on the host's threads: a part's buckets of one column are
+    // one 64-byte line of their own, so the parts never share a cache line.
+    struct Part {
+        std::vector<GpuTriangle> triangles;
+        std::vector<std::uint32_t> items;  // the part's own triangle indices
+    };
+    constexpr int kPartFrames = 16;
+    std::vector<Part> parts;
     auto gather = [&](int batch_first, int batch_frames) {
+        bucket_room.assign(std::size_t(columns) * std::size_t(batch_frames), 0u);
+        parts.resize(std::size_t((batch_frames + kPartFrames - 1) / kPartFrames));
+        parallel_for(parts.size(), [&](std::size_t p) {
+            Part& part = parts[p];
+            part.triangles.clear();
+            part.items.clear();
+            for (int slot = int(p) * kPartFrames; slot < std::min(batch_frames, int(p + 1) * kPartFrames); ++slot) {
+                const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
+                if (!frame.closed) continue;
+                for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
+                    auto index = std::uint32_t(part.triangles.size());
+                    part.triangles.push_back({{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}});
+                    for (int y = y0; y <= y1; ++y) {
+                        std::uint32_t* room = bucket_room.data() + (std::size_t(y) * std::size_t(nx) + std::size_t(x0)) * std::size_t(batch_frames) + std::size_t(slot);
+                        for (int x = x0; x <= x1; ++x, room += batch_frames) ++*room;
+                    }
+                    for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
+                        for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
+                            part.items.push_back(index);
+                            part.items.push_back(std::uint32_t(tx) | (std::uint32_t(ty) << 16));
+                        }
+                });
+            }
+        });
+        // The parts one after another, their triangle indices moved past the earlier parts'.
         batch_triangles.clear();
         batch_items.clear();
-        bucket_room.assign(std::size_t(columns) * std::size_t(batch_frames), 0u);
-        for (int slot = 0; slot < batch_frames; ++slot) {
-            const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
-            if (!frame.closed) continue;
-            for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
-                auto index = std::uint32_t(batch_triangles.size());
-                batch_triangles.push_back({{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}});
-                for (int y = y0; y <= y1; ++y) {
-                    std::uint32_t* room = bucket_room.data() + (std::size_t(y) * std::size_t(nx) + std::size_t(x0)) * std::size_t(batch_frames) + std::size_t(slot);
-                    for (int x = x0; x <= x1; ++x, room += batch_frames) ++*room;
-                }
-                for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
-                    for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
-                        batch_items.push_back(index);
-                        batch_items.push_back(std::uint32_t(tx) | (std::uint32_t(ty) << 16));
-                    }
-            });
+        for (const Part& part : parts) {
+            const auto base = std::uint32_t(batch_triangles.size());
+            batch_triangles.insert(batch_triangles.end(), part.triangles.begin(), part.triangles.end());
+            for (std::size_t i = 0; i < part.items.size(); i += 2) {
+                batch_items.push_back(part.items[i] + base);
+                batch_items.push_back(part.items[i + 1]);
+            }
         }
     };
 
