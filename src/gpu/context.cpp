@@ -51,6 +51,7 @@ DeviceInfo describe(const vk::raii::PhysicalDevice& device, std::uint32_t index)
     }
     const auto& limits = base.limits;
     info.max_storage_buffer_range = limits.maxStorageBufferRange;
+    info.max_texel_buffer_elements = limits.maxTexelBufferElements;
     info.max_workgroup_size = {limits.maxComputeWorkGroupSize[0], limits.maxComputeWorkGroupSize[1],
                                limits.maxComputeWorkGroupSize[2]};
     info.max_workgroup_invocations = limits.maxComputeWorkGroupInvocations;

@@ -21,6 +21,7 @@ struct DeviceInfo {
     std::string driver;  // driver name and info
     std::string api_version;
     vk::DeviceSize max_storage_buffer_range = 0;
+    std::uint32_t max_texel_buffer_elements = 0;
     vk::DeviceSize max_allocation_size = 0;
     std::array<std::uint32_t, 3> max_workgroup_size{};
     std::uint32_t max_workgroup_invocations = 0;

@@ -75,6 +75,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     if (budget == 0) {
         budget = std::min<std::uint64_t>(context_.selected().max_storage_buffer_range, 256ull << 20);
         if (context_.selected().max_allocation_size) budget = std::min<std::uint64_t>(budget, context_.selected().max_allocation_size);
+        // Keys, bucket starts and ends are read as 32-bit texels, triangles as 128-bit ones.
+        if (context_.selected().max_texel_buffer_elements)
+            budget = std::min<std::uint64_t>(budget, std::uint64_t(context_.selected().max_texel_buffer_elements) * 4);
     }
     if (layer_bytes > budget)
         throw Error(fmt::format("one {}x{} layer of the grid needs {:.1f} MiB, more than the {:.1f} MiB storage buffer limit",
@@ -84,13 +87,24 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // The key list ends in kKeyPadding spare slots: the column pass fetches a small bucket's keys
     // as a whole register set, past the bucket's end.
     const std::uint64_t key_limit = budget / 4 - kKeyPadding;
-    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0);
+    // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
+    // also fit one buffer each.
+    const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
+    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_triangles(std::size_t(frames), 0),
+        frame_items(std::size_t(frames), 0);
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
         if (!frame.closed) continue;  // the host's surface rule handles it
         for_each_crossable(frame, nx, ny, [&](const fixed::Triangle&, int x0, int x1, int y0, int y1) {
             frame_keys[std::size_t(f)] += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
+            frame_triangles[std::size_t(f)] += 1;
+            frame_items[std::size_t(f)] += std::uint64_t(x1 / kTile - x0 / kTile + 1) * std::uint64_t(y1 / kTile - y0 / kTile + 1);
         });
+        if (frame_triangles[std::size_t(f)] > triangle_limit || frame_items[std::size_t(f)] > item_limit)
+            throw Error(fmt::format("{}: the frame has {} triangles in {} work items, more than one {:.1f} MiB buffer holds "
+                                    "({} triangles, {} work items); use --backend cpu",
+                                    frame.source, frame_triangles[std::size_t(f)], frame_items[std::size_t(f)],
+                                    double(budget) / (1 << 20), triangle_limit, item_limit));
         if (frame_keys[std::size_t(f)] > key_limit)
             throw Error(fmt::format("{}: the frame's triangles cover up to {} voxel columns, more crossings than one "
                                     "{:.1f} MiB storage buffer holds ({}); use a coarser voxel or --backend cpu",
@@ -111,13 +125,20 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // The batch starting at `first` (inside its word): its frames and their keys.
     struct Batch {
         int frames = 0;
-        std::uint64_t keys = 0;
+        std::uint64_t keys = 0, triangles = 0, items = 0;
     };
     auto batch_at = [&](int first, int word_last) {
         Batch batch;
-        while (first + batch.frames < word_last && batch.frames < frames_limit &&
-               (batch.frames == 0 || batch.keys + frame_keys[std::size_t(first + batch.frames)] <= key_room))
-            batch.keys += frame_keys[std::size_t(first + batch.frames++)];
+        while (first + batch.frames < word_last && batch.frames < frames_limit) {
+            const auto next = std::size_t(first + batch.frames);
+            if (batch.frames > 0 && (batch.keys + frame_keys[next] > key_room || batch.triangles + frame_triangles[next] > triangle_limit ||
+                                     batch.items + frame_items[next] > item_limit))
+                break;
+            batch.keys += frame_keys[next];
+            batch.triangles += frame_triangles[next];
+            batch.items += frame_items[next];
+            ++batch.frames;
+        }
         return batch;
     };
     for (int first = 0; first < frames;) {
