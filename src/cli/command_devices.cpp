@@ -20,8 +20,10 @@ void add_devices_command(CLI::App& app) {
             bool used = d.index == context.selected().index;
             std::cout << fmt::format("{} [{}] {} ({})\n", used ? "*" : " ", d.index, d.name, d.type);
             std::cout << fmt::format("      driver: {}, Vulkan {}\n", d.driver, d.api_version);
-            std::cout << fmt::format("      max storage buffer range: {} MiB, max allocation: {} MiB, device-local memory: {} MiB\n",
-                                     d.max_storage_buffer_range >> 20, d.max_allocation_size >> 20, d.device_local_bytes >> 20);
+            std::cout << fmt::format("      max storage buffer range: {} MiB, max texel buffer: {} M texels, max allocation: {} MiB, "
+                                     "device-local memory: {} MiB\n",
+                                     d.max_storage_buffer_range >> 20, d.max_texel_buffer_elements >> 20, d.max_allocation_size >> 20,
+                                     d.device_local_bytes >> 20);
             std::cout << fmt::format("      max workgroup size: {} x {} x {} ({} invocations), shared memory: {} KiB, subgroup size: {}\n",
                                      d.max_workgroup_size[0], d.max_workgroup_size[1], d.max_workgroup_size[2],
                                      d.max_workgroup_invocations, d.shared_memory_bytes / 1024, d.subgroup_size);
