@@ -63,6 +63,7 @@ layout(push_constant) uniform Params {
     int slab_layers;
     int bit_offset;   // bit of the batch's first frame inside the word
     uint whole_word;  // 1: the batch holds every frame of the word
+    uint mask_base;   // the slab's first word in `mask`
 } params;
 
 uint start_of(uint bucket) { return texelFetch(bucket_start, int(bucket)).x; }
@@ -155,12 +156,12 @@ void write_column(uint column, int first, int last) {
     if (params.whole_word != 0u) {
         for (int z = first; z <= last; ++z) {
             word ^= toggles[flip_base + uint(z)];
-            mask[uint(z) * params.columns + column] = word;
+            mask[params.mask_base + uint(z) * params.columns + column] = word;
         }
     } else {
         for (int z = first; z <= last; ++z) {
             word ^= toggles[flip_base + uint(z)];
-            if (word != 0u) mask[uint(z) * params.columns + column] |= word;
+            if (word != 0u) mask[params.mask_base + uint(z) * params.columns + column] |= word;
         }
     }
 }

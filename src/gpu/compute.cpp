@@ -42,6 +42,28 @@ Buffer::Buffer(Context& context, vk::DeviceSize size, Memory memory)
     kind_ = memory;
 }
 
+Buffer::Buffer(vk::DeviceSize size, vk::raii::Buffer buffer, vk::raii::DeviceMemory memory, void* mapped)
+    : size_(size), buffer_(std::move(buffer)), memory_(std::move(memory)), mapped_(mapped), kind_(Memory::Host) {}
+
+std::unique_ptr<Buffer> Buffer::import_host(Context& context, void* pointer, vk::DeviceSize size) {
+    constexpr auto kHandle = vk::ExternalMemoryHandleTypeFlagBits::eHostAllocationEXT;
+    vk::ExternalMemoryBufferCreateInfo external{.handleTypes = kHandle};
+    vk::raii::Buffer buffer(context.device(), vk::BufferCreateInfo{
+                                                  .pNext = &external,
+                                                  .size = size,
+                                                  .usage = vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eTransferDst,
+                                                  .sharingMode = vk::SharingMode::eExclusive});
+    const auto host = context.device().getMemoryHostPointerPropertiesEXT(kHandle, pointer);
+    const auto requirements = buffer.getMemoryRequirements();
+    using F = vk::MemoryPropertyFlagBits;
+    const std::uint32_t type = context.memory_type(requirements.memoryTypeBits & host.memoryTypeBits,
+                                                   F::eHostVisible | F::eHostCoherent, F::eHostCached);
+    vk::ImportMemoryHostPointerInfoEXT import{.handleType = kHandle, .pHostPointer = pointer};
+    vk::raii::DeviceMemory memory(context.device(), vk::MemoryAllocateInfo{.pNext = &import, .allocationSize = size, .memoryTypeIndex = type});
+    buffer.bindMemory(*memory, 0);
+    return std::unique_ptr<Buffer>(new Buffer(size, std::move(buffer), std::move(memory), pointer));
+}
+
 void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes, Buffer::Memory memory) {
     if (!buffer || buffer->size() < bytes || buffer->memory() != memory) {
         buffer.reset();  // the old memory goes back before the new is allocated

@@ -18,6 +18,10 @@ public:
         Host,    // read or written by the host: host-visible, coherent, cached where possible
     };
     Buffer(Context& context, vk::DeviceSize size, Memory memory);
+    // A buffer over `size` bytes of host memory at `pointer` (VK_EXT_external_memory_host; both
+    // aligned to the device's host_import_alignment). The memory stays the caller's and must
+    // outlive the buffer.
+    static std::unique_ptr<Buffer> import_host(Context& context, void* pointer, vk::DeviceSize size);
 
     vk::Buffer handle() const { return *buffer_; }
     vk::DeviceSize size() const { return size_; }
@@ -29,6 +33,7 @@ public:
     }
 
 private:
+    Buffer(vk::DeviceSize size, vk::raii::Buffer buffer, vk::raii::DeviceMemory memory, void* mapped);
     vk::DeviceSize size_;
     vk::raii::Buffer buffer_;
     vk::raii::DeviceMemory memory_;

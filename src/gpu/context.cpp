@@ -76,6 +76,11 @@ DeviceInfo describe(const vk::raii::PhysicalDevice& device, std::uint32_t index)
         info.subgroup_size = chain.get<vk::PhysicalDeviceSubgroupProperties>().subgroupSize;
         info.max_allocation_size = chain.get<vk::PhysicalDeviceMaintenance3Properties>().maxMemoryAllocationSize;
     }
+    for (const auto& extension : device.enumerateDeviceExtensionProperties())
+        if (std::string(extension.extensionName.data()) == VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) {
+            auto host = device.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceExternalMemoryHostPropertiesEXT>();
+            info.host_import_alignment = host.get<vk::PhysicalDeviceExternalMemoryHostPropertiesEXT>().minImportedHostPointerAlignment;
+        }
     auto memory = device.getMemoryProperties();
     for (std::uint32_t h = 0; h < memory.memoryHeapCount; ++h)
         if (memory.memoryHeaps[h].flags & vk::MemoryHeapFlagBits::eDeviceLocal)
@@ -174,7 +179,13 @@ Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>(
     float priority = 1.0f;
     vk::DeviceQueueCreateInfo queue_info{.queueFamilyIndex = queue_family_, .queueCount = 1, .pQueuePriorities = &priority};
     vk::PhysicalDeviceFeatures features{.shaderInt64 = VK_TRUE};
-    vk::DeviceCreateInfo device_info{.queueCreateInfoCount = 1, .pQueueCreateInfos = &queue_info, .pEnabledFeatures = &features};
+    std::vector<const char*> device_extensions;
+    if (selected().host_import_alignment) device_extensions.push_back(VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+    vk::DeviceCreateInfo device_info{.queueCreateInfoCount = 1,
+                                     .pQueueCreateInfos = &queue_info,
+                                     .enabledExtensionCount = std::uint32_t(device_extensions.size()),
+                                     .ppEnabledExtensionNames = device_extensions.data(),
+                                     .pEnabledFeatures = &features};
     device_ = std::make_unique<vk::raii::Device>(*physical_device_, device_info);
     queue_ = std::make_unique<vk::raii::Queue>(*device_, queue_family_, 0);
     memory_properties_ = physical_device_->getMemoryProperties();

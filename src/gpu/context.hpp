@@ -29,6 +29,9 @@ struct DeviceInfo {
     std::uint32_t shared_memory_bytes = 0;
     std::uint32_t subgroup_size = 0;
     std::uint64_t device_local_bytes = 0;
+    // VK_EXT_external_memory_host: host memory can back a buffer (0: not supported), with this
+    // alignment of pointer and size.
+    vk::DeviceSize host_import_alignment = 0;
     std::vector<std::string> problems;  // why it cannot be used; empty = usable
     int preference = 0;                 // lower is preferred
 

@@ -26,7 +26,7 @@ struct RasterParams {
 struct ColumnParams {
     std::uint32_t column_base, column_count, columns, frames;
     std::int32_t slab_layers, bit_offset;
-    std::uint32_t whole_word;
+    std::uint32_t whole_word, mask_base;
 };
 
 // A closed frame's triangles that a vertical ray can cross, with the columns their bounding boxes
@@ -115,7 +115,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // is rasterised once), and each occupancy word's frames into batches whose keys and buckets
     // (one counter per frame and column) fit one buffer each.
     plan_ = {};
-    plan_.slab_layers = int(std::min<std::uint64_t>({std::uint64_t(nz), budget / layer_bytes, std::uint64_t(kMaxSlabLayers)}));
+    // Where the device works in host memory (a CPU driver such as lavapipe, or an integrated GPU),
+    // the column pass writes each slab of the mask straight into the aMHV, imported page by page:
+    // no copy and no clear (a new aMHV is zero). The import covers whole pages around the slab.
+    const auto& device = context_.selected();
+    const vk::DeviceSize import_alignment = device.host_import_alignment;
+    const bool in_place = options_.write_in_place && import_alignment > 0 && (device.type == "cpu" || device.type == "integrated");
+    const std::uint64_t mask_budget = in_place ? budget - std::min<std::uint64_t>(budget / 2, 2 * import_alignment) : budget;
+    plan_.writes_in_place = in_place;
+    plan_.slab_layers = int(std::min<std::uint64_t>({std::uint64_t(nz), mask_budget / layer_bytes, std::uint64_t(kMaxSlabLayers)}));
     plan_.slabs = (nz + plan_.slab_layers - 1) / plan_.slab_layers;
     // Halved when a column has more crossings in a batch than the column pass sorts.
     int frames_limit = int(std::min<std::uint64_t>(32, budget / layer_bytes));
@@ -163,7 +171,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 for (auto* buffer : b.all()) buffer->reset();
         }
     } release{b};
-    ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
+    if (!in_place) ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
     ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Device);
     // One start more than there are buckets: the end of the last one, so every column's room is
     // the difference of two starts.
@@ -176,7 +184,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     ensure_capacity(context_, b.large_buckets, bucket_bytes, Buffer::Memory::Device);
     ensure_capacity(context_, b.huge_buckets, bucket_bytes, Buffer::Memory::Device);
     ensure_capacity(context_, b.lists, 32, Buffer::Memory::Host);
-    Buffer &mask = *b.mask, &toggles = *b.toggles, &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys;
+    Buffer &toggles = *b.toggles, &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys;
     Buffer& overflow = *b.overflow;
     Buffer& column_frames = *b.column_frames;
     Buffer &spans = *b.spans, &large_buckets = *b.large_buckets, &huge_buckets = *b.huge_buckets, &lists = *b.lists;
@@ -244,8 +252,22 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         const int word_last = std::min(frames, word_first + 32);
         for (int z_begin = 0; z_begin < nz; z_begin += plan_.slab_layers) {
             const int slab_layers = std::min(plan_.slab_layers, nz - z_begin);
-            // The word's bits accumulate in `mask` over its batches; it is cleared once per slab.
-            sequence.fill(mask, layer_bytes * slab_layers, 0u);
+            // The word's bits accumulate in the mask over its batches: the aMHV's own pages, or the
+            // scratch mask cleared once per slab and copied into the aMHV after it.
+            std::uint32_t* destination = out.plane(word) + std::size_t(z_begin) * columns;
+            const std::size_t destination_bytes = std::size_t(slab_layers) * columns * sizeof(std::uint32_t);
+            std::unique_ptr<Buffer> imported;
+            std::uint32_t mask_base = 0;  // the slab's first word in the mask buffer
+            if (in_place) {
+                const auto first = reinterpret_cast<std::uintptr_t>(destination);
+                const std::uintptr_t begin = first / import_alignment * import_alignment;
+                const std::uintptr_t end = (first + destination_bytes + import_alignment - 1) / import_alignment * import_alignment;
+                imported = Buffer::import_host(context_, reinterpret_cast<void*>(begin), end - begin);
+                mask_base = std::uint32_t((first - begin) / sizeof(std::uint32_t));
+            } else {
+                sequence.fill(*b.mask, destination_bytes, 0u);
+            }
+            Buffer& mask = in_place ? *imported : *b.mask;
             bool any_work = false;
             for (int batch_first = word_first; batch_first < word_last;) {
                 const int batch_frames = batch_at(batch_first, word_last).frames;
@@ -300,7 +322,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
                 const ColumnParams column_params{0, 0, columns, std::uint32_t(batch_frames), slab_layers, batch_first - word_first,
-                                                 std::uint32_t(batch_first == word_first && batch_frames == word_last - word_first)};
+                                                 std::uint32_t(batch_first == word_first && batch_frames == word_last - word_first), mask_base};
                 sequence.dispatch(flip_small_, columns_set, column_params, columns);
                 // The small buckets' flips and spans, and the lists of larger ones, must be in place
                 // before the larger ones' atomics add theirs (the two lists' buckets are apart).
@@ -330,12 +352,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 frames_limit = std::max(1, batch_frames / 2);
                 ++plan_.overflow_retries;
             }
-            if (!any_work) continue;
+            if (!any_work || in_place) continue;  // written in place after each batch's fence
             // The host reads the mask right after the fence.
             sequence.barrier_to_host();
             sequence.submit_and_wait();
-            const std::uint32_t* slab = mask.mapped<std::uint32_t>().data();
-            std::memcpy(out.plane(word) + std::size_t(z_begin) * columns, slab, std::size_t(slab_layers) * columns * sizeof(std::uint32_t));
+            std::memcpy(destination, mask.mapped<std::uint32_t>().data(), destination_bytes);
         }
     }
 }

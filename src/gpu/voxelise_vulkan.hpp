@@ -28,6 +28,9 @@ struct VoxeliserOptions {
     // lavapipe's loop cap); a batch with more is redone with fewer frames, and a single frame with
     // more is an error naming it. Tests lower it.
     std::uint32_t max_column_crossings = 1024;
+    // Write the mask straight into the aMHV's memory where the device works in host memory and
+    // can import it (VK_EXT_external_memory_host); false: a scratch mask copied in. Tests use both.
+    bool write_in_place = true;
 };
 
 class VulkanVoxeliser final : public Voxeliser {
@@ -43,6 +46,7 @@ public:
         int slabs = 0;
         int batches = 0;
         int overflow_retries = 0;         // batches redone with fewer frames: a column had too many crossings
+        bool writes_in_place = false;     // the mask went straight into the aMHV
         std::uint64_t work_items = 0;
         std::uint64_t key_capacity = 0;   // crossing keys the largest batch may write (an upper bound)
     };
