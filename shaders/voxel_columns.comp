@@ -118,29 +118,33 @@ uint column_crossings(uint column, uint with_room) {
     return min(total, MAX_COLUMN_CROSSINGS + 1u);
 }
 
-// One step of a bucket walk: `key` is the bucket's next key in order, `next` the one after it
-// (NO_KEY past the end), `valid` whether `key` is one. The winding number changes by each key;
-// once every key of a layer is in, the voxels above are inside when it is non-zero, and an
-// inside/outside switch is a flip of the frame's bit at that layer. The fast path keeps a flip's
-// layer in register f<flips> and writes the flips after the walk, in a loop only as long as the
-// subgroup's most flips: on lavapipe a buffer access in a branch costs a loop over the lanes
-// whether or not a lane takes it.
-#define WALK_REGISTER(key, next, valid)                                               \
-    {                                                                                 \
-        int layer = int((key) >> 1);                                                  \
-        winding += (valid) ? (((key) & 1u) != 0u ? 1 : -1) : 0;                       \
-        bool flip = (valid) && int((next) >> 1) != layer && (winding != 0) != inside; \
-        inside = inside != flip;                                                      \
-        f0 = flip && flips == 0u ? layer : f0;                                        \
-        f1 = flip && flips == 1u ? layer : f1;                                        \
-        f2 = flip && flips == 2u ? layer : f2;                                        \
-        f3 = flip && flips == 3u ? layer : f3;                                        \
-        f4 = flip && flips == 4u ? layer : f4;                                        \
-        f5 = flip && flips == 5u ? layer : f5;                                        \
-        f6 = flip && flips == 6u ? layer : f6;                                        \
-        f7 = flip && flips == 7u ? layer : f7;                                        \
-        flips += flip ? 1u : 0u;                                                      \
+// The bucket's i-th key, NO_KEY past its n keys. The key list ends in LARGE_KEYS spare slots, so a
+// fetch past the bucket stays in the buffer (and is always made: on lavapipe a fetch in a branch
+// costs as much as one outside it); what it reads is replaced.
+uint key_at(uint start, uint i, uint n) {
+    uint key = texelFetch(key_texels, int(start + i)).x;
+    return i < n ? key : NO_KEY;
+}
+
+// One step of a register bucket walk: `key` is the bucket's i-th key in order, `next` the one
+// after it (NO_KEY past the end); keys from the n-th on are not. The winding number changes by
+// each key; once every key of a layer is in, the voxels above are inside when it is non-zero, and
+// an inside/outside switch is a flip of the frame's bit at that layer, recorded as bit i of
+// flip_bits. The flips are written after the walk, in a loop only as long as the subgroup's most
+// flips: on lavapipe a buffer access in a branch costs a loop over the lanes whether or not a lane
+// takes it.
+#define WALK_BIT(key, next, i)                                                      \
+    {                                                                               \
+        bool valid = (i) < n;                                                       \
+        int layer = int((key) >> 1);                                                \
+        winding += valid ? (((key) & 1u) != 0u ? 1 : -1) : 0;                      \
+        bool flip = valid && int((next) >> 1) != layer && (winding != 0) != inside; \
+        inside = inside != flip;                                                    \
+        flip_bits |= flip ? 1u << (i) : 0u;                                         \
     }
+// Key i of k0..k7, by a tree of selects: registers cannot be indexed.
+#define PICK8(i) (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) \
+                                   : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0)))
 #define ORDER(a, b)              \
     {                            \
         uint lower = min(a, b);  \
@@ -190,20 +194,8 @@ void flip_small(uint column) {
             }
             continue;
         }
-        // The key list ends in LARGE_KEYS spare slots, so the fetches past the bucket stay in the
-        // buffer; what they read is replaced by NO_KEY.
-        uint k0 = texelFetch(key_texels, int(start)).x, k1 = texelFetch(key_texels, int(start + 1u)).x;
-        uint k2 = texelFetch(key_texels, int(start + 2u)).x, k3 = texelFetch(key_texels, int(start + 3u)).x;
-        uint k4 = texelFetch(key_texels, int(start + 4u)).x, k5 = texelFetch(key_texels, int(start + 5u)).x;
-        uint k6 = texelFetch(key_texels, int(start + 6u)).x, k7 = texelFetch(key_texels, int(start + 7u)).x;
-        k0 = n > 0u ? k0 : NO_KEY;
-        k1 = n > 1u ? k1 : NO_KEY;
-        k2 = n > 2u ? k2 : NO_KEY;
-        k3 = n > 3u ? k3 : NO_KEY;
-        k4 = n > 4u ? k4 : NO_KEY;
-        k5 = n > 5u ? k5 : NO_KEY;
-        k6 = n > 6u ? k6 : NO_KEY;
-        k7 = n > 7u ? k7 : NO_KEY;
+        uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
+        uint k4 = key_at(start, 4u, n), k5 = key_at(start, 5u, n), k6 = key_at(start, 6u, n), k7 = key_at(start, 7u, n);
         // An optimal sorting network for 8 keys (19 comparators).
         ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7)
         ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7)
@@ -213,25 +205,19 @@ void flip_small(uint column) {
         ORDER(k1, k2) ORDER(k3, k4) ORDER(k5, k6)
         int winding = 0;
         bool inside = false;
-        uint flips = 0u;
-        int f0 = 0, f1 = 0, f2 = 0, f3 = 0, f4 = 0, f5 = 0, f6 = 0, f7 = 0;
-        WALK_REGISTER(k0, k1, n > 0u)
-        WALK_REGISTER(k1, k2, n > 1u)
-        WALK_REGISTER(k2, k3, n > 2u)
-        WALK_REGISTER(k3, k4, n > 3u)
-        WALK_REGISTER(k4, k5, n > 4u)
-        WALK_REGISTER(k5, k6, n > 5u)
-        WALK_REGISTER(k6, k7, n > 6u)
-        WALK_REGISTER(k7, NO_KEY, n > 7u)
+        uint flip_bits = 0u;
+        WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
+        WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, NO_KEY, 7u)
         uint bit = 1u << (uint(params.bit_offset) + s);
-        for (uint j = 0u; j < flips; ++j) {
-            int layer = j == 0u ? f0 : j == 1u ? f1 : j == 2u ? f2 : j == 3u ? f3 : j == 4u ? f4 : j == 5u ? f5 : j == 6u ? f6 : f7;
-            toggles[flip_base + uint(layer)] ^= bit;
+        for (uint pending_flips = flip_bits; pending_flips != 0u; pending_flips &= pending_flips - 1u) {
+            uint i = uint(findLSB(pending_flips));
+            toggles[flip_base + (PICK8(i) >> 1)] ^= bit;
         }
-        if (flips > 0u) {
-            int top = flips == 1u ? f0 : flips == 2u ? f1 : flips == 3u ? f2 : flips == 4u ? f3 : flips == 5u ? f4 : flips == 6u ? f5 : flips == 7u ? f6 : f7;
-            first = min(first, f0);
-            last = max(last, top);
+        if (flip_bits != 0u) {
+            uint i = uint(findLSB(flip_bits));
+            first = min(first, int(PICK8(i) >> 1));
+            i = uint(findMSB(flip_bits));
+            last = max(last, int(PICK8(i) >> 1));
         }
         // Still inside after the last crossing (the closing ones lie above the slab): to the top.
         if (inside) last = params.slab_layers - 1;
@@ -245,19 +231,6 @@ void flip_small(uint column) {
     spans[column] = ivec2(first, last);
 }
 
-// The bucket's i-th key, NO_KEY past its n keys.
-uint key_at(uint start, uint i, uint n) { return i < n ? texelFetch(key_texels, int(start + i)).x : NO_KEY; }
-
-// The register walk of FLIP_LARGE: as WALK_REGISTER, with flip i recorded as bit i of flip_bits.
-#define WALK_BIT(key, next, i)                                                         \
-    {                                                                                  \
-        bool valid = (i) < n;                                                          \
-        int layer = int((key) >> 1);                                                   \
-        winding += valid ? (((key) & 1u) != 0u ? 1 : -1) : 0;                         \
-        bool flip = valid && int((next) >> 1) != layer && (winding != 0) != inside;    \
-        inside = inside != flip;                                                       \
-        flip_bits |= flip ? 1u << (i) : 0u;                                            \
-    }
 // Key i of k0..k31, by a tree of selects: registers cannot be indexed.
 #define PICK32(i) (((i) & 16u) != 0u ? (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k31 : k30) : (((i) & 1u) != 0u ? k29 : k28)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k27 : k26) : (((i) & 1u) != 0u ? k25 : k24))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k23 : k22) : (((i) & 1u) != 0u ? k21 : k20)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k19 : k18) : (((i) & 1u) != 0u ? k17 : k16)))) : (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k15 : k14) : (((i) & 1u) != 0u ? k13 : k12)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k11 : k10) : (((i) & 1u) != 0u ? k9 : k8))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0)))))
 
