@@ -36,10 +36,12 @@ vk::raii::DeviceMemory allocate(Context& context, const vk::raii::Buffer& buffer
 }  // namespace
 
 Buffer::Buffer(Context& context, vk::DeviceSize size, Memory memory)
-    : size_(std::max<vk::DeviceSize>(size, 4)), buffer_(make_buffer(context, size_)), memory_(allocate(context, buffer_, memory)) {
+    : size_(std::max<vk::DeviceSize>(size, 4)),
+      buffer_(make_buffer(context, size_)),
+      memory_(allocate(context, buffer_, memory)),
+      kind_(memory) {
     buffer_.bindMemory(*memory_, 0);
     if (memory == Memory::Host) mapped_ = memory_.mapMemory(0, size_);
-    kind_ = memory;
 }
 
 Buffer::Buffer(vk::DeviceSize size, vk::raii::Buffer buffer, vk::raii::DeviceMemory memory, void* mapped)
@@ -201,10 +203,15 @@ void Sequence::fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pa
     commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), pattern);
 }
 
-void Sequence::dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes,
-                            std::uint32_t invocations) {
+void Sequence::use(Kernel& kernel, const BoundBuffers& set, const void* push, std::uint32_t bytes) {
     commands_.bindPipeline(vk::PipelineBindPoint::eCompute, *kernel.pipeline_);
     commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set.set}, nullptr);
+    commands_.pushConstants<std::uint8_t>(*kernel.pipeline_layout_, vk::ShaderStageFlagBits::eCompute, 0,
+                                          std::span(static_cast<const std::uint8_t*>(push), bytes));
+}
+
+void Sequence::dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes,
+                            std::uint32_t invocations) {
     const std::uint32_t group = kernel.workgroup_size();
     const std::uint32_t max_groups = std::min<std::uint32_t>(context_.selected().max_workgroup_count_x, 65535u);
     const std::uint32_t per_dispatch = max_groups * group;
@@ -214,18 +221,14 @@ void Sequence::dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push,
         std::uint32_t count = std::min(per_dispatch, invocations - done);
         words[0] = caller_base + done;
         words[1] = count;
-        commands_.pushConstants<std::uint8_t>(*kernel.pipeline_layout_, vk::ShaderStageFlagBits::eCompute, 0,
-                                              std::span(static_cast<const std::uint8_t*>(push), bytes));
+        use(kernel, set, push, bytes);
         commands_.dispatch((count + group - 1) / group, 1, 1);
     }
 }
 
 void Sequence::dispatch_indirect_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes, const Buffer& args,
                                      vk::DeviceSize offset) {
-    commands_.bindPipeline(vk::PipelineBindPoint::eCompute, *kernel.pipeline_);
-    commands_.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *kernel.pipeline_layout_, 0, {*set.set}, nullptr);
-    commands_.pushConstants<std::uint8_t>(*kernel.pipeline_layout_, vk::ShaderStageFlagBits::eCompute, 0,
-                                          std::span(static_cast<const std::uint8_t*>(push), bytes));
+    use(kernel, set, push, bytes);
     commands_.dispatchIndirect(args.handle(), offset);
 }
 

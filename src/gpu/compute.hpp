@@ -117,6 +117,8 @@ public:
     void submit_and_wait();
 
 private:
+    // Binds the kernel's pipeline, its buffers and the push constants for the dispatches that follow.
+    void use(Kernel& kernel, const BoundBuffers& set, const void* push, std::uint32_t bytes);
     void dispatch_indirect_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes, const Buffer& args,
                                vk::DeviceSize offset);
     void dispatch_raw(Kernel& kernel, const BoundBuffers& set, void* push, std::uint32_t bytes,

@@ -36,6 +36,9 @@ struct DeviceInfo {
     int preference = 0;                 // lower is preferred
 
     bool usable() const { return problems.empty(); }
+    // The device works in host memory (a CPU driver such as lavapipe, or an integrated GPU) and can
+    // import it: a kernel may write straight into the host's own arrays.
+    bool shares_host_memory() const { return host_import_alignment > 0 && (type == "cpu" || type == "integrated"); }
 };
 
 struct ContextOptions {

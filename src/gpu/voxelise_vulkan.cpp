@@ -120,7 +120,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // no copy and no clear (a new aMHV is zero). The import covers whole pages around the slab.
     const auto& device = context_.selected();
     const vk::DeviceSize import_alignment = device.host_import_alignment;
-    const bool in_place = options_.write_in_place && import_alignment > 0 && (device.type == "cpu" || device.type == "integrated");
+    const bool in_place = options_.write_in_place && device.shares_host_memory();
     const std::uint64_t mask_budget = in_place ? budget - std::min<std::uint64_t>(budget / 2, 2 * import_alignment) : budget;
     plan_.writes_in_place = in_place;
     plan_.slab_layers = int(std::min<std::uint64_t>({std::uint64_t(nz), mask_budget / layer_bytes, std::uint64_t(kMaxSlabLayers)}));
