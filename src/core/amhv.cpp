@@ -6,7 +6,7 @@ namespace amhv {
 
 Amhv::Amhv(VoxelGrid grid, int frames) : grid_(grid), frames_(frames), words_((frames + 31) / 32) {
     if (frames <= 0) throw Error(fmt::format("an aMHV needs at least one frame, got {}", frames));
-    mask_.assign(std::size_t(words_) * grid_.voxel_count(), 0u);
+    mask_.resize(std::size_t(words_) * grid_.voxel_count());  // zero, see ZeroedAllocator
 }
 
 bool Amhv::has_gap(std::size_t voxel) const {

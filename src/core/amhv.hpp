@@ -3,11 +3,39 @@
 // per voxel, the full occupancy mask over the segment's frames.
 #include <bit>
 #include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <utility>
 #include <vector>
 
 #include "core/grid.hpp"
 
 namespace amhv {
+
+// Allocates zeroed memory with calloc and leaves new elements as they are (zero). A large block
+// comes straight from the kernel's zero pages, so a new volume costs nothing until its pages are
+// written: voxelisers write only the voxels that some frame occupies, and untouched pages of a
+// mostly empty volume are never faulted in.
+template <typename T>
+struct ZeroedAllocator {
+    using value_type = T;
+    ZeroedAllocator() = default;
+    template <typename U>
+    ZeroedAllocator(const ZeroedAllocator<U>&) {}
+    T* allocate(std::size_t n) {
+        if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
+        throw std::bad_alloc();
+    }
+    void deallocate(T* p, std::size_t) { std::free(p); }
+    template <typename U>
+    void construct(U*) {}  // value-initialised: already zero
+    template <typename U, typename... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+    template <typename U>
+    bool operator==(const ZeroedAllocator<U>&) const { return true; }
+};
 
 class Amhv {
 public:
@@ -26,7 +54,8 @@ public:
     std::uint32_t word(int w, std::size_t voxel) const { return mask_[std::size_t(w) * voxel_count() + voxel]; }
     bool occupied(std::size_t voxel, int frame) const { return (word(frame / 32, voxel) >> (frame % 32)) & 1u; }
     void set(std::size_t voxel, int frame) { mask_[std::size_t(frame / 32) * voxel_count() + voxel] |= 1u << (frame % 32); }
-    const std::vector<std::uint32_t>& mask() const { return mask_; }
+    using Mask = std::vector<std::uint32_t, ZeroedAllocator<std::uint32_t>>;
+    const Mask& mask() const { return mask_; }
 
     // Derived per-voxel quantities; t_start/t_end are -1 for an empty voxel. Inline: the sweep's
     // host stages call them for every voxel of large volumes.
@@ -60,7 +89,7 @@ private:
     VoxelGrid grid_;
     int frames_ = 0;
     int words_ = 0;
-    std::vector<std::uint32_t> mask_;
+    Mask mask_;
 };
 
 struct AmhvSummary {

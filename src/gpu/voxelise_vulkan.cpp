@@ -92,14 +92,21 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
     std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_triangles(std::size_t(frames), 0),
         frame_items(std::size_t(frames), 0);
+    parallel_for(std::size_t(frames), [&](std::size_t f) {
+        const PreparedFrame& frame = input.frames[f];
+        if (!frame.closed) return;  // the host's surface rule handles it
+        std::uint64_t keys = 0, triangles = 0, items = 0;  // counted apart: neighbouring frames share cache lines
+        for_each_crossable(frame, nx, ny, [&](const fixed::Triangle&, int x0, int x1, int y0, int y1) {
+            keys += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
+            triangles += 1;
+            items += std::uint64_t(x1 / kTile - x0 / kTile + 1) * std::uint64_t(y1 / kTile - y0 / kTile + 1);
+        });
+        frame_keys[f] = keys;
+        frame_triangles[f] = triangles;
+        frame_items[f] = items;
+    });
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
-        if (!frame.closed) continue;  // the host's surface rule handles it
-        for_each_crossable(frame, nx, ny, [&](const fixed::Triangle&, int x0, int x1, int y0, int y1) {
-            frame_keys[std::size_t(f)] += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
-            frame_triangles[std::size_t(f)] += 1;
-            frame_items[std::size_t(f)] += std::uint64_t(x1 / kTile - x0 / kTile + 1) * std::uint64_t(y1 / kTile - y0 / kTile + 1);
-        });
         if (frame_triangles[std::size_t(f)] > triangle_limit || frame_items[std::size_t(f)] > item_limit)
             throw Error(fmt::format("{}: the frame has {} triangles in {} work items, more than one {:.1f} MiB buffer holds "
                                     "({} triangles, {} work items); use --backend cpu",
@@ -198,53 +205,52 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
     // of that frame whose bounding box holds the column, an upper bound on its crossings, so the
     // raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
-    std::vector<GpuTriangle> batch_triangles;
-    std::vector<std::uint32_t> batch_items;  // pairs (triangle, tile x | tile y << 16)
     std::vector<std::uint32_t> bucket_room;
-    // Gathered in parts of 16 frames on the host's threads: a part's buckets of one column are
-    // one 64-byte line of their own, so the parts never share a cache line.
-    struct Part {
-        std::vector<GpuTriangle> triangles;
-        std::vector<std::uint32_t> items;  // the part's own triangle indices
-    };
+    // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
+    // buffers: the planning counts give every frame its place. Parts of 16 frames run on the host's
+    // threads; a part's buckets of one column are one 64-byte line of their own, so the parts never
+    // share a cache line.
     constexpr int kPartFrames = 16;
-    std::vector<Part> parts;
+    struct Gathered {
+        std::uint32_t triangles = 0, items = 0;
+    };
+    std::vector<Gathered> frame_base;
     auto gather = [&](int batch_first, int batch_frames) {
+        Gathered total;
+        frame_base.resize(std::size_t(batch_frames));
+        for (int slot = 0; slot < batch_frames; ++slot) {
+            frame_base[std::size_t(slot)] = total;
+            total.triangles += std::uint32_t(frame_triangles[std::size_t(batch_first + slot)]);
+            total.items += std::uint32_t(frame_items[std::size_t(batch_first + slot)]);
+        }
         bucket_room.assign(std::size_t(columns) * std::size_t(batch_frames), 0u);
-        parts.resize(std::size_t((batch_frames + kPartFrames - 1) / kPartFrames));
-        parallel_for(parts.size(), [&](std::size_t p) {
-            Part& part = parts[p];
-            part.triangles.clear();
-            part.items.clear();
+        if (total.items == 0) return total;
+        ensure_host_capacity(context_, triangles, std::uint64_t(total.triangles) * sizeof(GpuTriangle));
+        ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
+        GpuTriangle* triangle_out = triangles->mapped<GpuTriangle>().data();
+        std::uint32_t* item_out = work_items->mapped<std::uint32_t>().data();
+        parallel_for(std::size_t((batch_frames + kPartFrames - 1) / kPartFrames), [&](std::size_t p) {
             for (int slot = int(p) * kPartFrames; slot < std::min(batch_frames, int(p + 1) * kPartFrames); ++slot) {
                 const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
                 if (!frame.closed) continue;
+                std::uint32_t index = frame_base[std::size_t(slot)].triangles;
+                std::uint32_t* item = item_out + std::size_t(frame_base[std::size_t(slot)].items) * 2;
                 for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
-                    auto index = std::uint32_t(part.triangles.size());
-                    part.triangles.push_back({{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}});
+                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
                     for (int y = y0; y <= y1; ++y) {
                         std::uint32_t* room = bucket_room.data() + (std::size_t(y) * std::size_t(nx) + std::size_t(x0)) * std::size_t(batch_frames) + std::size_t(slot);
                         for (int x = x0; x <= x1; ++x, room += batch_frames) ++*room;
                     }
                     for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
                         for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
-                            part.items.push_back(index);
-                            part.items.push_back(std::uint32_t(tx) | (std::uint32_t(ty) << 16));
+                            *item++ = index;
+                            *item++ = std::uint32_t(tx) | (std::uint32_t(ty) << 16);
                         }
+                    ++index;
                 });
             }
         });
-        // The parts one after another, their triangle indices moved past the earlier parts'.
-        batch_triangles.clear();
-        batch_items.clear();
-        for (const Part& part : parts) {
-            const auto base = std::uint32_t(batch_triangles.size());
-            batch_triangles.insert(batch_triangles.end(), part.triangles.begin(), part.triangles.end());
-            for (std::size_t i = 0; i < part.items.size(); i += 2) {
-                batch_items.push_back(part.items[i] + base);
-                batch_items.push_back(part.items[i + 1]);
-            }
-        }
+        return total;
     };
 
     for (int word = 0; word < out.words(); ++word) {
@@ -271,18 +277,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             bool any_work = false;
             for (int batch_first = word_first; batch_first < word_last;) {
                 const int batch_frames = batch_at(batch_first, word_last).frames;
-                gather(batch_first, batch_frames);
+                const Gathered gathered = gather(batch_first, batch_frames);
                 ++plan_.batches;
-                plan_.work_items += batch_items.size() / 2;
-                if (batch_items.empty()) {  // no closed surface in this batch: its bits stay 0
+                plan_.work_items += gathered.items;
+                if (gathered.items == 0) {  // no closed surface in this batch: its bits stay 0
                     batch_first += batch_frames;
                     continue;
                 }
                 any_work = true;
-                ensure_host_capacity(context_, triangles, batch_triangles.size() * sizeof(GpuTriangle));
-                ensure_host_capacity(context_, work_items, batch_items.size() * sizeof(std::uint32_t));
-                std::memcpy(triangles->mapped<GpuTriangle>().data(), batch_triangles.data(), batch_triangles.size() * sizeof(GpuTriangle));
-                std::memcpy(work_items->mapped<std::uint32_t>().data(), batch_items.data(), batch_items.size() * sizeof(std::uint32_t));
                 {
                     // Stretches in bucket order; every cursor starts at its bucket's start.
                     std::uint32_t* starts = bucket_start.mapped<std::uint32_t>().data();
@@ -293,9 +295,10 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     for (std::uint32_t column = 0, bucket = 0; column < columns; ++column) {
                         std::uint32_t with_room = 0;
                         for (int slot = 0; slot < batch_frames; ++slot, ++bucket) {
+                            const std::uint32_t room = bucket_room[bucket];
                             starts[bucket] = cursors[bucket] = next;
-                            next += bucket_room[bucket];
-                            with_room |= bucket_room[bucket] != 0 ? 1u << slot : 0u;
+                            next += room;
+                            with_room |= room != 0 ? 1u << slot : 0u;
                         }
                         frames_with_room[column] = with_room;
                     }
@@ -311,7 +314,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 auto raster_set = raster_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
                 auto columns_set = flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
                                                   &large_buckets, &huge_buckets, &lists});
-                const auto items = std::uint32_t(batch_items.size() / 2);
+                const std::uint32_t items = gathered.items;
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
 
                 // The previous batch's last reads of the flips and keys must be done before they
