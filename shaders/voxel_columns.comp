@@ -59,12 +59,18 @@ layout(push_constant) uniform Params {
     uint item_base;   // first column
     uint item_count;
     uint columns;     // nx * ny
-    uint frames;      // buckets per column
+    uint frames;      // frames in the batch
     int slab_layers;
     int bit_offset;   // bit of the batch's first frame inside the word
     uint whole_word;  // 1: the batch holds every frame of the word
     uint mask_base;   // the slab's first word in `mask`
 } params;
+
+// Buckets lie frame by frame: bucket (column, slot) is slot * columns + column, so the raster's
+// slots and keys for one frame stay together in the caches.
+uint bucket_of(uint column, uint slot) { return slot * params.columns + column; }
+uint column_of(uint bucket) { return bucket % params.columns; }
+uint slot_of(uint bucket) { return bucket / params.columns; }
 
 uint start_of(uint bucket) { return texelFetch(bucket_start, int(bucket)).x; }
 uint end_of(uint bucket) { return texelFetch(bucket_end, int(bucket)).x; }
@@ -112,7 +118,7 @@ void sort_bucket(uint start, uint n) {
 uint column_crossings(uint column, uint with_room) {
     uint total = 0u;
     for (uint pending = with_room; pending != 0u && total <= MAX_COLUMN_CROSSINGS; pending &= pending - 1u) {
-        uint bucket = column * params.frames + uint(findLSB(pending));
+        uint bucket = bucket_of(column, uint(findLSB(pending)));
         total += end_of(bucket) - start_of(bucket);
     }
     return min(total, MAX_COLUMN_CROSSINGS + 1u);
@@ -178,11 +184,11 @@ void flip_small(uint column) {
     // Only the frames with room in this column: most columns see the surface in few of them.
     for (uint pending = with_room; pending != 0u; pending &= pending - 1u) {
         uint s = uint(findLSB(pending));
-        uint start = start_of(column * params.frames + s);
-        uint n = end_of(column * params.frames + s) - start;
+        uint start = start_of(bucket_of(column, s));
+        uint n = end_of(bucket_of(column, s)) - start;
         total += n;
         if (n > REGISTER_KEYS) {  // the next stages'
-            uint bucket = column * params.frames + s;
+            uint bucket = bucket_of(column, s);
             if (n <= LARGE_KEYS) {
                 uint index = atomicAdd(large_list.count, 1u);
                 large_buckets[index] = bucket;
@@ -237,7 +243,7 @@ void flip_small(uint column) {
 void flip_large(uint bucket) {
     uint start = start_of(bucket);
     uint n = end_of(bucket) - start;
-    uint column = bucket / params.frames;
+    uint column = column_of(bucket);
     if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
     uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
     uint k4 = key_at(start, 4u, n), k5 = key_at(start, 5u, n), k6 = key_at(start, 6u, n), k7 = key_at(start, 7u, n);
@@ -305,7 +311,7 @@ void flip_large(uint bucket) {
     WALK_BIT(k24, k25, 24u) WALK_BIT(k25, k26, 25u) WALK_BIT(k26, k27, 26u) WALK_BIT(k27, k28, 27u)
     WALK_BIT(k28, k29, 28u) WALK_BIT(k29, k30, 29u) WALK_BIT(k30, k31, 30u) WALK_BIT(k31, NO_KEY, 31u)
     if (flip_bits == 0u) return;
-    uint bit = 1u << (uint(params.bit_offset) + bucket % params.frames);
+    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
     uint flip_base = column * uint(params.slab_layers);
     for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {
         uint i = uint(findLSB(pending));
@@ -323,10 +329,10 @@ void flip_large(uint bucket) {
 void flip_huge(uint bucket) {
     uint start = start_of(bucket);
     uint n = end_of(bucket) - start;
-    uint column = bucket / params.frames;
+    uint column = column_of(bucket);
     if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
     sort_bucket(start, n);
-    uint bit = 1u << (uint(params.bit_offset) + bucket % params.frames);
+    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
     uint flip_base = column * uint(params.slab_layers);
     int first = params.slab_layers, last = -1;
     int winding = 0;

@@ -1,7 +1,7 @@
 #version 450
 // Pass 1 of the solid voxelisation. Every invocation takes one (triangle, tile of columns) work
 // item and finds the columns whose centre the triangle's xy-projection covers. A bucket is one
-// (column, frame slot): index column * frames + slot. Each crossing's key (layer << 1 | upward)
+// (column, frame slot): index slot * columns + column. Each crossing's key (layer << 1 | upward)
 // goes into its bucket's next slot, where layer is the first voxel centre above the crossing,
 // relative to the slab (crossings below the slab count from its first layer; those above it
 // affect no voxel of the slab and are left out). The host gave every bucket room for one key per
@@ -29,7 +29,7 @@ layout(push_constant) uniform Params {
     int ny;
     int z_begin;     // first z layer of the slab
     int slab_layers; // z layers in the slab
-    uint frames;     // frames in the batch: buckets per column
+    uint frames;     // frames in the batch
 } params;
 
 void main() {
@@ -119,7 +119,7 @@ void main() {
                 int64_t layer = floor_div_estimated(numerator, layer_divisor) + 1 - int64_t(params.z_begin);
                 // Above this slab: affects no voxel here. Below it: counts from its first layer.
                 if (layer < int64_t(params.slab_layers)) {
-                    uint bucket = (uint(y) * uint(params.nx) + uint(x)) * params.frames + frame_slot;
+                    uint bucket = frame_slot * uint(params.nx * params.ny) + uint(y) * uint(params.nx) + uint(x);
                     uint slot = atomicAdd(bucket_cursor[bucket], 1u);
                     keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
                 }

@@ -238,8 +238,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
                     triangle_out[index] = {{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
                     for (int y = y0; y <= y1; ++y) {
-                        std::uint32_t* room = bucket_room.data() + (std::size_t(y) * std::size_t(nx) + std::size_t(x0)) * std::size_t(batch_frames) + std::size_t(slot);
-                        for (int x = x0; x <= x1; ++x, room += batch_frames) ++*room;
+                        std::uint32_t* room = bucket_room.data() + std::size_t(slot) * columns + std::size_t(y) * std::size_t(nx);
+                        for (int x = x0; x <= x1; ++x) ++room[x];
                     }
                     for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
                         for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
@@ -292,16 +292,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     // Each column's frames with room.
                     std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
                     std::uint32_t next = 0;
-                    for (std::uint32_t column = 0, bucket = 0; column < columns; ++column) {
-                        std::uint32_t with_room = 0;
-                        for (int slot = 0; slot < batch_frames; ++slot, ++bucket) {
+                    std::fill_n(frames_with_room, columns, 0u);
+                    for (std::uint32_t slot = 0, bucket = 0; slot < std::uint32_t(batch_frames); ++slot)
+                        for (std::uint32_t column = 0; column < columns; ++column, ++bucket) {
                             const std::uint32_t room = bucket_room[bucket];
                             starts[bucket] = cursors[bucket] = next;
                             next += room;
-                            with_room |= room != 0 ? 1u << slot : 0u;
+                            frames_with_room[column] |= room != 0 ? 1u << slot : 0u;
                         }
-                        frames_with_room[column] = with_room;
-                    }
                     starts[bucket_room.size()] = next;
                     // Both lists empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
                     std::uint32_t* list_heads = lists.mapped<std::uint32_t>().data();
