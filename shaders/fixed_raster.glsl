@@ -18,10 +18,12 @@ bool is_top_left(ivec2 a, ivec2 b) {
     return dy < 0 || (dy == 0 && dx < 0);
 }
 
-// fixed_raster.hpp's covers(w, a, b), with is_top_left(a, b) passed in: the raster decides it once
-// per triangle edge rather than once per column.
-bool covers(int64_t w, bool top_left) {
-    return w > 0 || (w == 0 && top_left);
+// fixed_raster.hpp's covers(w, a, b) as a 32-bit edge value for the raster's coverage test: it is
+// non-negative exactly when covers holds (w > 0, or w == 0 on a top-left edge), and clamped to
+// +-2^30 so that steps across a tile keep its sign without overflow.
+int coverage_edge(int64_t w, bool top_left) {
+    const int64_t limit = int64_t(1) << 30;
+    return int(clamp(w, -limit, limit)) - (top_left ? 0 : 1);
 }
 
 int64_t floor_div(int64_t n, int64_t d) {  // d > 0
@@ -37,10 +39,11 @@ ivec2 centre_range(int lo, int hi) {
 }
 
 // floor(n / d) for d > 0 without a 64-bit division (which lavapipe runs lane by lane): a float
-// estimate, exact to within one when |n / d| stays below a few thousand (a crossing layer always
-// does: it lies within the triangle's z range), then corrected with one exact product.
-int64_t floor_div_estimated(int64_t n, int64_t d) {
-    int64_t q = int64_t(floor(float(n) / float(d)));
+// estimate from d's reciprocal (1.0 / float(d)), exact to within one when |n / d| stays below a few
+// thousand (a crossing layer always does: it lies within the triangle's z range), then corrected
+// with one exact product.
+int64_t floor_div_estimated(int64_t n, int64_t d, float reciprocal) {
+    int64_t q = int64_t(floor(float(n) * reciprocal));
     int64_t r = n - q * d;
     if (r < 0) q -= 1;
     else if (r >= d) q += 1;

@@ -66,16 +66,23 @@ void main() {
     int64_t row_wb = edge_function(c.xy, a.xy, p0);
     int64_t row_wc = edge_function(a.xy, b.xy, p0);
     // edge_function(u, v, p) grows by -(v.y - u.y) per unit of p.x and by (v.x - u.x) per unit of p.y.
-    int64_t step_x_wa = -int64_t(c.y - b.y) * SUBVOXEL, step_y_wa = int64_t(c.x - b.x) * SUBVOXEL;
-    int64_t step_x_wb = -int64_t(a.y - c.y) * SUBVOXEL, step_y_wb = int64_t(a.x - c.x) * SUBVOXEL;
-    int64_t step_x_wc = -int64_t(b.y - a.y) * SUBVOXEL, step_y_wc = int64_t(b.x - a.x) * SUBVOXEL;
+    // Coordinates stay below 2^17, so a step is below 2^23 and fits 32 bits.
+    int step_x_wa = -(c.y - b.y) * int(SUBVOXEL), step_y_wa = (c.x - b.x) * int(SUBVOXEL);
+    int step_x_wb = -(a.y - c.y) * int(SUBVOXEL), step_y_wb = (a.x - c.x) * int(SUBVOXEL);
+    int step_x_wc = -(b.y - a.y) * int(SUBVOXEL), step_y_wc = (b.x - a.x) * int(SUBVOXEL);
     // Crossing height z = (wa*za + wb*zb + wc*zc) / area; voxel k's centre is above it when
     // (k*S + S/2) * area > numerator, so the first such k is floor((num - S/2*area)/(S*area)) + 1.
     int64_t row_numerator = row_wa * int64_t(a.z) + row_wb * int64_t(b.z) + row_wc * int64_t(c.z) - half_voxel * area;
-    int64_t step_x_numerator = step_x_wa * int64_t(a.z) + step_x_wb * int64_t(b.z) + step_x_wc * int64_t(c.z);
-    int64_t step_y_numerator = step_y_wa * int64_t(a.z) + step_y_wb * int64_t(b.z) + step_y_wc * int64_t(c.z);
+    int64_t step_x_numerator = int64_t(step_x_wa) * a.z + int64_t(step_x_wb) * b.z + int64_t(step_x_wc) * c.z;
+    int64_t step_y_numerator = int64_t(step_y_wa) * a.z + int64_t(step_y_wb) * b.z + int64_t(step_y_wc) * c.z;
     int64_t layer_divisor = SUBVOXEL * area;
-    bool top_left_a = is_top_left(b.xy, c.xy), top_left_b = is_top_left(c.xy, a.xy), top_left_c = is_top_left(a.xy, b.xy);
+    float layer_reciprocal = 1.0 / float(layer_divisor);
+    // The coverage test runs in 32 bits: each edge value at the first column, clamped to +-2^30,
+    // keeps its sign over the tile (at most 2 (TILE - 1) steps of below 2^23 each: under 2^28 for
+    // TILE <= 16), and the top-left rule is folded in: a column is covered when all three are >= 0.
+    int row_ea = coverage_edge(row_wa, is_top_left(b.xy, c.xy));
+    int row_eb = coverage_edge(row_wb, is_top_left(c.xy, a.xy));
+    int row_ec = coverage_edge(row_wc, is_top_left(a.xy, b.xy));
 
     // The box goes in blocks of 8 x 8 columns. First the block's covered columns are found, with
     // arithmetic only, as bits of a 64-bit mask; then each takes its slot. On lavapipe an atomic
@@ -83,27 +90,27 @@ void main() {
     // in a loop as long as this subgroup's most covered columns, not its largest box.
     for (int block_y = y_first; block_y <= y_last; block_y += 8) {
         for (int block_x = x_first; block_x <= x_last; block_x += 8) {
-            const int64_t dx0 = int64_t(block_x - x_first), dy0 = int64_t(block_y - y_first);
-            int64_t block_wa = row_wa + dx0 * step_x_wa + dy0 * step_y_wa;
-            int64_t block_wb = row_wb + dx0 * step_x_wb + dy0 * step_y_wb;
-            int64_t block_wc = row_wc + dx0 * step_x_wc + dy0 * step_y_wc;
-            int64_t block_numerator = row_numerator + dx0 * step_x_numerator + dy0 * step_y_numerator;
+            const int dx0 = block_x - x_first, dy0 = block_y - y_first;
+            int block_ea = row_ea + dx0 * step_x_wa + dy0 * step_y_wa;
+            int block_eb = row_eb + dx0 * step_x_wb + dy0 * step_y_wb;
+            int block_ec = row_ec + dx0 * step_x_wc + dy0 * step_y_wc;
+            int64_t block_numerator = row_numerator + int64_t(dx0) * step_x_numerator + int64_t(dy0) * step_y_numerator;
             uint covered_low = 0u, covered_high = 0u;  // bit (y - block_y) * 8 + (x - block_x), rows 0-3 and 4-7
             for (int y = block_y; y <= min(block_y + 7, y_last); ++y) {
-                int64_t wa = block_wa, wb = block_wb, wc = block_wc;
+                int ea = block_ea, eb = block_eb, ec = block_ec;
                 uint row_bits = 0u;
                 for (int x = block_x; x <= min(block_x + 7, x_last); ++x) {
-                    if (covers(wa, top_left_a) && covers(wb, top_left_b) && covers(wc, top_left_c)) row_bits |= 1u << uint(x - block_x);
-                    wa += step_x_wa;
-                    wb += step_x_wb;
-                    wc += step_x_wc;
+                    if ((ea | eb | ec) >= 0) row_bits |= 1u << uint(x - block_x);
+                    ea += step_x_wa;
+                    eb += step_x_wb;
+                    ec += step_x_wc;
                 }
                 uint shift = uint((y - block_y) & 3) * 8u;
                 if (y - block_y < 4) covered_low |= row_bits << shift;
                 else covered_high |= row_bits << shift;
-                block_wa += step_y_wa;
-                block_wb += step_y_wb;
-                block_wc += step_y_wc;
+                block_ea += step_y_wa;
+                block_eb += step_y_wb;
+                block_ec += step_y_wc;
             }
             while ((covered_low | covered_high) != 0u) {
                 int bit;
@@ -116,7 +123,7 @@ void main() {
                 }
                 int x = block_x + (bit & 7), y = block_y + (bit >> 3);
                 int64_t numerator = block_numerator + int64_t(bit & 7) * step_x_numerator + int64_t(bit >> 3) * step_y_numerator;
-                int64_t layer = floor_div_estimated(numerator, layer_divisor) + 1 - int64_t(params.z_begin);
+                int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - int64_t(params.z_begin);
                 // Above this slab: affects no voxel here. Below it: counts from its first layer.
                 if (layer < int64_t(params.slab_layers)) {
                     uint bucket = frame_slot * uint(params.nx * params.ny) + uint(y) * uint(params.nx) + uint(x);
