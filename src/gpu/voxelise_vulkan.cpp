@@ -205,7 +205,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
     // of that frame whose bounding box holds the column, an upper bound on its crossings, so the
     // raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
-    std::vector<std::uint32_t> bucket_room;
+    // Each frame's rooms as a 2-D difference array over (nx + 1) x (ny + 1) corners: a triangle adds
+    // one to its box with four updates, and the starts loop sums them up.
+    const std::size_t corners = std::size_t(nx + 1) * std::size_t(ny + 1);
+    std::vector<std::int32_t> room_corners;
+    std::vector<std::uint32_t> row_above;
     // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
     // buffers: the planning counts give every frame its place. Parts of 16 frames run on the host's
     // threads; a part's buckets of one column are one 64-byte line of their own, so the parts never
@@ -223,7 +227,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             total.triangles += std::uint32_t(frame_triangles[std::size_t(batch_first + slot)]);
             total.items += std::uint32_t(frame_items[std::size_t(batch_first + slot)]);
         }
-        bucket_room.assign(std::size_t(columns) * std::size_t(batch_frames), 0u);
+        room_corners.assign(corners * std::size_t(batch_frames), 0);
         if (total.items == 0) return total;
         ensure_host_capacity(context_, triangles, std::uint64_t(total.triangles) * sizeof(GpuTriangle));
         ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
@@ -237,10 +241,12 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 std::uint32_t* item = item_out + std::size_t(frame_base[std::size_t(slot)].items) * 2;
                 for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
                     triangle_out[index] = {{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
-                    for (int y = y0; y <= y1; ++y) {
-                        std::uint32_t* room = bucket_room.data() + std::size_t(slot) * columns + std::size_t(y) * std::size_t(nx);
-                        for (int x = x0; x <= x1; ++x) ++room[x];
-                    }
+                    std::int32_t* corner = room_corners.data() + std::size_t(slot) * corners;
+                    const std::size_t row = std::size_t(nx + 1);
+                    ++corner[std::size_t(y0) * row + std::size_t(x0)];
+                    --corner[std::size_t(y0) * row + std::size_t(x1 + 1)];
+                    --corner[std::size_t(y1 + 1) * row + std::size_t(x0)];
+                    ++corner[std::size_t(y1 + 1) * row + std::size_t(x1 + 1)];
                     for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
                         for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
                             *item++ = index;
@@ -293,14 +299,23 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
                     std::uint32_t next = 0;
                     std::fill_n(frames_with_room, columns, 0u);
-                    for (std::uint32_t slot = 0, bucket = 0; slot < std::uint32_t(batch_frames); ++slot)
-                        for (std::uint32_t column = 0; column < columns; ++column, ++bucket) {
-                            const std::uint32_t room = bucket_room[bucket];
-                            starts[bucket] = cursors[bucket] = next;
-                            next += room;
-                            frames_with_room[column] |= room != 0 ? 1u << slot : 0u;
+                    std::uint32_t bucket = 0;
+                    for (std::uint32_t slot = 0; slot < std::uint32_t(batch_frames); ++slot) {
+                        const std::int32_t* corner = room_corners.data() + std::size_t(slot) * corners;
+                        row_above.assign(std::size_t(nx), 0u);
+                        for (int y = 0; y < ny; ++y) {
+                            std::int32_t row_sum = 0;
+                            for (int x = 0; x < nx; ++x, ++bucket) {
+                                row_sum += corner[std::size_t(y) * std::size_t(nx + 1) + std::size_t(x)];
+                                const std::uint32_t room = row_above[std::size_t(x)] + std::uint32_t(row_sum);
+                                row_above[std::size_t(x)] = room;
+                                starts[bucket] = cursors[bucket] = next;
+                                next += room;
+                                frames_with_room[bucket - slot * columns] |= room != 0 ? 1u << slot : 0u;
+                            }
                         }
-                    starts[bucket_room.size()] = next;
+                    }
+                    starts[bucket] = next;
                     // Both lists empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
                     std::uint32_t* list_heads = lists.mapped<std::uint32_t>().data();
                     for (int list = 0; list < 2; ++list) {
