@@ -205,16 +205,13 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
     // of that frame whose bounding box holds the column, an upper bound on its crossings, so the
     // raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
-    // Each frame's rooms as a 2-D difference array over (nx + 1) x (ny + 1) corners: a triangle adds
-    // one to its box with four updates, and the starts loop sums them up.
+    // Each frame's rooms are first a 2-D difference array over (nx + 1) x (ny + 1) corners: a
+    // triangle adds one to its box with four updates, and the starts loop sums them up.
     const std::size_t corners = std::size_t(nx + 1) * std::size_t(ny + 1);
     std::vector<std::int32_t> room_corners;
     std::vector<std::uint32_t> row_above;
     // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
-    // buffers: the planning counts give every frame its place. Parts of 16 frames run on the host's
-    // threads; a part's buckets of one column are one 64-byte line of their own, so the parts never
-    // share a cache line.
-    constexpr int kPartFrames = 16;
+    // buffers, frame by frame on the host's threads: the planning counts give every frame its place.
     struct Gathered {
         std::uint32_t triangles = 0, items = 0;
     };
@@ -233,28 +230,26 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
         GpuTriangle* triangle_out = triangles->mapped<GpuTriangle>().data();
         std::uint32_t* item_out = work_items->mapped<std::uint32_t>().data();
-        parallel_for(std::size_t((batch_frames + kPartFrames - 1) / kPartFrames), [&](std::size_t p) {
-            for (int slot = int(p) * kPartFrames; slot < std::min(batch_frames, int(p + 1) * kPartFrames); ++slot) {
-                const PreparedFrame& frame = input.frames[std::size_t(batch_first + slot)];
-                if (!frame.closed) continue;
-                std::uint32_t index = frame_base[std::size_t(slot)].triangles;
-                std::uint32_t* item = item_out + std::size_t(frame_base[std::size_t(slot)].items) * 2;
-                for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
-                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, slot}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
-                    std::int32_t* corner = room_corners.data() + std::size_t(slot) * corners;
-                    const std::size_t row = std::size_t(nx + 1);
-                    ++corner[std::size_t(y0) * row + std::size_t(x0)];
-                    --corner[std::size_t(y0) * row + std::size_t(x1 + 1)];
-                    --corner[std::size_t(y1 + 1) * row + std::size_t(x0)];
-                    ++corner[std::size_t(y1 + 1) * row + std::size_t(x1 + 1)];
-                    for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
-                        for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
-                            *item++ = index;
-                            *item++ = std::uint32_t(tx) | (std::uint32_t(ty) << 16);
-                        }
-                    ++index;
-                });
-            }
+        parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
+            const PreparedFrame& frame = input.frames[std::size_t(batch_first) + slot];
+            if (!frame.closed) return;
+            std::uint32_t index = frame_base[slot].triangles;
+            std::uint32_t* item = item_out + std::size_t(frame_base[slot].items) * 2;
+            std::int32_t* corner = room_corners.data() + slot * corners;
+            const std::size_t row = std::size_t(nx + 1);
+            for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
+                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
+                ++corner[std::size_t(y0) * row + std::size_t(x0)];
+                --corner[std::size_t(y0) * row + std::size_t(x1 + 1)];
+                --corner[std::size_t(y1 + 1) * row + std::size_t(x0)];
+                ++corner[std::size_t(y1 + 1) * row + std::size_t(x1 + 1)];
+                for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
+                    for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
+                        *item++ = index;
+                        *item++ = std::uint32_t(tx) | (std::uint32_t(ty) << 16);
+                    }
+                ++index;
+            });
         });
         return total;
     };
