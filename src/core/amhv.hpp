@@ -15,7 +15,8 @@ namespace amhv {
 // Allocates zeroed memory with calloc and leaves new elements as they are (zero). A large block
 // comes straight from the kernel's zero pages, so a new volume costs nothing until its pages are
 // written: voxelisers write only the voxels that some frame occupies, and untouched pages of a
-// mostly empty volume are never faulted in.
+// mostly empty volume are never faulted in. Only for a vector sized once from empty (the aMHV's
+// mask): growing back after a shrink would keep the old values.
 template <typename T>
 struct ZeroedAllocator {
     using value_type = T;
