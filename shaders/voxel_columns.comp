@@ -59,7 +59,6 @@ layout(push_constant) uniform Params {
     uint item_base;   // first column
     uint item_count;
     uint columns;     // nx * ny
-    uint frames;      // frames in the batch
     int slab_layers;
     int bit_offset;   // bit of the batch's first frame inside the word
     uint whole_word;  // 1: the batch holds every frame of the word

@@ -29,7 +29,6 @@ layout(push_constant) uniform Params {
     int ny;
     int z_begin;     // first z layer of the slab
     int slab_layers; // z layers in the slab
-    uint frames;     // frames in the batch
 } params;
 
 void main() {

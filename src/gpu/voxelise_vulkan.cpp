@@ -21,10 +21,9 @@ static_assert(sizeof(GpuTriangle) == 48);
 struct RasterParams {
     std::uint32_t work_base, work_count;
     std::int32_t nx, ny, z_begin, slab_layers;
-    std::uint32_t frames;
 };
 struct ColumnParams {
-    std::uint32_t column_base, column_count, columns, frames;
+    std::uint32_t column_base, column_count, columns;
     std::int32_t slab_layers, bit_offset;
     std::uint32_t whole_word, mask_base;
 };
@@ -298,15 +297,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     for (std::uint32_t slot = 0; slot < std::uint32_t(batch_frames); ++slot) {
                         const std::int32_t* corner = room_corners.data() + std::size_t(slot) * corners;
                         row_above.assign(std::size_t(nx), 0u);
-                        for (int y = 0; y < ny; ++y) {
+                        for (std::uint32_t column = 0, y = 0; y < std::uint32_t(ny); ++y) {
                             std::int32_t row_sum = 0;
-                            for (int x = 0; x < nx; ++x, ++bucket) {
-                                row_sum += corner[std::size_t(y) * std::size_t(nx + 1) + std::size_t(x)];
-                                const std::uint32_t room = row_above[std::size_t(x)] + std::uint32_t(row_sum);
-                                row_above[std::size_t(x)] = room;
+                            for (std::uint32_t x = 0; x < std::uint32_t(nx); ++x, ++column, ++bucket) {
+                                row_sum += corner[std::size_t(y) * std::size_t(nx + 1) + x];
+                                const std::uint32_t room = row_above[x] + std::uint32_t(row_sum);
+                                row_above[x] = room;
                                 starts[bucket] = cursors[bucket] = next;
                                 next += room;
-                                frames_with_room[bucket - slot * columns] |= room != 0 ? 1u << slot : 0u;
+                                frames_with_room[column] |= room != 0 ? 1u << slot : 0u;
                             }
                         }
                     }
@@ -323,7 +322,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 auto columns_set = flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
                                                   &large_buckets, &huge_buckets, &lists});
                 const std::uint32_t items = gathered.items;
-                const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers, std::uint32_t(batch_frames)};
+                const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers};
 
                 // The previous batch's last reads of the flips and keys must be done before they
                 // are cleared and rewritten (the host wrote the cursors after the fence).
@@ -332,7 +331,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 sequence.dispatch(raster_, raster_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
-                const ColumnParams column_params{0, 0, columns, std::uint32_t(batch_frames), slab_layers, batch_first - word_first,
+                const ColumnParams column_params{0, 0, columns, slab_layers, batch_first - word_first,
                                                  std::uint32_t(batch_first == word_first && batch_frames == word_last - word_first), mask_base};
                 sequence.dispatch(flip_small_, columns_set, column_params, columns);
                 // The small buckets' flips and spans, and the lists of larger ones, must be in place
