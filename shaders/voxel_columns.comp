@@ -356,6 +356,19 @@ void flip_huge(uint bucket) {
     }
 }
 
+// The per-column stages take their columns through spread_group, a permutation of the dispatch's
+// workgroups that deals consecutive ones to SPREAD_STRIPES stripes of the grid. lavapipe gives each
+// of its threads one contiguous share of a dispatch's workgroups: with the columns in order, one
+// thread got the rows the body stands in and the other mostly empty ones (1.4x on two threads
+// instead of 2x). The raster keeps its order: its shares are different frames, already even.
+const uint SPREAD_STRIPES = 16;
+uint spread_group(uint group, uint groups) {
+    uint rows = (groups + SPREAD_STRIPES - 1) / SPREAD_STRIPES;  // of the stripes-wide matrix the groups fill row by row
+    uint full_stripes = groups - (rows - 1) * SPREAD_STRIPES;  // stripes with `rows` groups; the others have one less
+    uint stripe = group % SPREAD_STRIPES, row = group / SPREAD_STRIPES;
+    return stripe * (rows - 1) + min(stripe, full_stripes) + row;
+}
+
 void main() {
     // The listed stages run as many workgroups as FLIP_SMALL counted, up to MAX_GROUPS, and step
     // over the rest of their list.
@@ -368,8 +381,9 @@ void main() {
         for (uint i = gl_GlobalInvocationID.x; i < huge_list.count; i += stride) flip_huge(huge_buckets[i]);
         return;
     }
-    if (gl_GlobalInvocationID.x >= params.item_count) return;
-    uint item = params.item_base + gl_GlobalInvocationID.x;
+    uint index = spread_group(gl_WorkGroupID.x, gl_NumWorkGroups.x) * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
+    if (index >= params.item_count) return;
+    uint item = params.item_base + index;
     if (STAGE == FLIP_SMALL) flip_small(item);
     else write_column(item, spans[item].x, spans[item].y);
 }
