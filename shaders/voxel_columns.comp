@@ -14,8 +14,8 @@
 //     bitonic network. Frames of one column share flip words and spans, so these go in by atomics.
 //   FLIP_HUGE, the same for the buckets of more than LARGE_KEYS keys (rare), sorted in the key list.
 //   WRITE, one invocation per column: the XOR up the column's span.
-// A column with more crossings than MAX_COLUMN_CROSSINGS is skipped and flagged, and the host
-// redoes the batch with fewer frames. On lavapipe a sorting loop costs every invocation that
+// A column with more crossings than MAX_COLUMN_CROSSINGS is skipped and flagged (FLIP_SMALL marks
+// its span, WRITE leaves it), and the host redoes the batch with fewer frames. On lavapipe a sorting loop costs every invocation that
 // passes it, taken or not, so the large buckets' loops have a kernel of their own.
 // Loop work per invocation is at most frames, plus MAX_COLUMN_CROSSINGS * (log2 MAX_COLUMN_CROSSINGS
 // + 2) for a large bucket's sort and walk, or slab_layers for the XOR.
@@ -29,6 +29,9 @@ const uint REGISTER_KEYS = 8;         // FLIP_SMALL's largest bucket
 const uint LARGE_KEYS = 32;           // FLIP_LARGE's largest bucket
 const uint MAX_GROUPS = 65535;        // an indirect dispatch's workgroups at most (the least limit Vulkan allows)
 const uint NO_KEY = 0xffffffffu;       // above every key: pads a small bucket to REGISTER_KEYS
+// A skipped column's span starts here, below every layer: the larger buckets' atomicMin keeps it, so
+// they need not check the column themselves (their flips there are cleared before the next batch).
+const int SKIPPED = -1;
 
 layout(std430, set = 0, binding = 0) buffer Keys { uint keys[]; };
 // Read-only data is read as texels: on lavapipe a texel fetch gathers all lanes at once, a
@@ -44,7 +47,7 @@ layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };
 layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };  // [z][y][x] of the slab
 layout(set = 0, binding = 6) uniform usamplerBuffer key_texels;     // `keys` again, for reading
 layout(set = 0, binding = 7) uniform usamplerBuffer column_frames;  // per column: bit s = frame s has room
-// Per column: the first and last layer with a flip (first > last: none, or skipped).
+// Per column: the first and last layer with a flip (first > last: none; first == SKIPPED: skipped).
 layout(std430, set = 0, binding = 8) buffer Spans { ivec2 spans[]; };
 layout(std430, set = 0, binding = 9) buffer LargeBuckets { uint large_buckets[]; };  // FLIP_LARGE's
 layout(std430, set = 0, binding = 10) buffer HugeBuckets { uint huge_buckets[]; };   // FLIP_HUGE's
@@ -110,17 +113,6 @@ void sort_bucket(uint start, uint n) {
         keys[start + last] = top;
         sift_down(start, 0u, last);
     }
-}
-
-// The column's crossings in this batch, when it has no more than MAX_COLUMN_CROSSINGS (more:
-// MAX_COLUMN_CROSSINGS + 1). Both flip stages skip a column with more the same way.
-uint column_crossings(uint column, uint with_room) {
-    uint total = 0u;
-    for (uint pending = with_room; pending != 0u && total <= MAX_COLUMN_CROSSINGS; pending &= pending - 1u) {
-        uint bucket = bucket_of(column, uint(findLSB(pending)));
-        total += end_of(bucket) - start_of(bucket);
-    }
-    return min(total, MAX_COLUMN_CROSSINGS + 1u);
 }
 
 // The bucket's i-th key, NO_KEY past its n keys. The key list ends in LARGE_KEYS spare slots, so a
@@ -230,7 +222,7 @@ void flip_small(uint column) {
     if (total > MAX_COLUMN_CROSSINGS) {
         // Skipped: its flips are left for the next batch's clear, and nothing is written.
         atomicMax(most_column_crossings, total);
-        first = params.slab_layers;
+        first = SKIPPED;
         last = -1;
     }
     spans[column] = ivec2(first, last);
@@ -243,7 +235,6 @@ void flip_large(uint bucket) {
     uint start = start_of(bucket);
     uint n = end_of(bucket) - start;
     uint column = column_of(bucket);
-    if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
     uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
     uint k4 = key_at(start, 4u, n), k5 = key_at(start, 5u, n), k6 = key_at(start, 6u, n), k7 = key_at(start, 7u, n);
     uint k8 = key_at(start, 8u, n), k9 = key_at(start, 9u, n), k10 = key_at(start, 10u, n), k11 = key_at(start, 11u, n);
@@ -329,7 +320,8 @@ void flip_huge(uint bucket) {
     uint start = start_of(bucket);
     uint n = end_of(bucket) - start;
     uint column = column_of(bucket);
-    if (column_crossings(column, texelFetch(column_frames, int(column)).x) > MAX_COLUMN_CROSSINGS) return;  // skipped, reported
+    // A bucket this large lies in a skipped column: no sort, whose work would be unbounded.
+    if (n > MAX_COLUMN_CROSSINGS) return;
     sort_bucket(start, n);
     uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
     uint flip_base = column * uint(params.slab_layers);
@@ -385,5 +377,8 @@ void main() {
     if (index >= params.item_count) return;
     uint item = params.item_base + index;
     if (STAGE == FLIP_SMALL) flip_small(item);
-    else write_column(item, spans[item].x, spans[item].y);
+    else {
+        ivec2 span = spans[item];
+        if (span.x != SKIPPED) write_column(item, span.x, span.y);
+    }
 }
