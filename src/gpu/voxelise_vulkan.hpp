@@ -54,7 +54,6 @@ public:
 
     static constexpr int kTile = 16;            // columns per tile side: <= 256 column tests per raster invocation
     static constexpr int kWorkgroup = 64;
-    static constexpr std::uint32_t kRegisterKeys = 8;  // voxel_columns.comp's REGISTER_KEYS
     static constexpr std::uint32_t kLargeKeys = 32;    // voxel_columns.comp's LARGE_KEYS
     static constexpr std::uint64_t kKeyPadding = kLargeKeys;
     // Layers per slab at most: with its sorts (about 12k iterations for 1024 crossings)

@@ -11,9 +11,9 @@ namespace amhv {
 namespace {
 
 // Cuts one row into maximal runs from whole words, column by column in increasing x (runs of one
-// key come out in increasing x): a run starts where a
-// bit is set and was clear in the previous column, and ends where it was set and is clear now, so
-// the work is per run end rather than per set voxel.
+// key come out in increasing x): a run starts where a bit is set and was clear in the previous
+// column, and ends where it was set and is clear now, so the work is per run end rather than per
+// set voxel.
 class RowRuns {
 public:
     explicit RowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
