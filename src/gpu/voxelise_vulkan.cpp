@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "core/error.hpp"
+#include "core/grid.hpp"
 #include "core/parallel.hpp"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
@@ -28,18 +29,26 @@ struct ColumnParams {
     std::uint32_t whole_word, mask_base;
 };
 
-// A closed frame's triangles that a vertical ray can cross, with the columns their bounding boxes
-// clip to (the upper bound on the crossings they can write).
-template <typename Visit>
-void for_each_crossable(const PreparedFrame& frame, int nx, int ny, Visit&& visit) {
-    for (const auto& t : frame.triangles) {
+// A triangle of a closed frame that a vertical ray can cross, with the columns its bounding box
+// clips to (the upper bound on the crossings it can write). Found once per call, while planning;
+// the batches' gathering reads them back instead of orienting every triangle again.
+struct Crossable {
+    std::uint32_t triangle;  // index in the frame
+    std::uint16_t x0, x1, y0, y1;
+};
+static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
+
+std::vector<Crossable> crossables_of(const PreparedFrame& frame, int nx, int ny) {
+    std::vector<Crossable> crossables;
+    for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
         fixed::Oriented oriented;
-        if (!fixed::orient(t, oriented)) continue;
+        if (!fixed::orient(frame.triangles[i], oriented)) continue;
         int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
         int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
         if (x0 > x1 || y0 > y1) continue;  // covers no column centre
-        visit(t, x0, x1, y0, y1);
+        crossables.push_back({std::uint32_t(i), std::uint16_t(x0), std::uint16_t(x1), std::uint16_t(y0), std::uint16_t(y1)});
     }
+    return crossables;
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
@@ -91,17 +100,18 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
     std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_triangles(std::size_t(frames), 0),
         frame_items(std::size_t(frames), 0);
+    std::vector<std::vector<Crossable>> frame_crossables(static_cast<std::size_t>(frames));
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
         if (!frame.closed) return;  // the host's surface rule handles it
-        std::uint64_t keys = 0, triangles = 0, items = 0;  // counted apart: neighbouring frames share cache lines
-        for_each_crossable(frame, nx, ny, [&](const fixed::Triangle&, int x0, int x1, int y0, int y1) {
-            keys += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
-            triangles += 1;
-            items += std::uint64_t(x1 / kTile - x0 / kTile + 1) * std::uint64_t(y1 / kTile - y0 / kTile + 1);
-        });
+        frame_crossables[f] = crossables_of(frame, nx, ny);
+        std::uint64_t keys = 0, items = 0;  // counted apart: neighbouring frames share cache lines
+        for (const Crossable& t : frame_crossables[f]) {
+            keys += std::uint64_t(t.x1 - t.x0 + 1) * std::uint64_t(t.y1 - t.y0 + 1);
+            items += std::uint64_t(t.x1 / kTile - t.x0 / kTile + 1) * std::uint64_t(t.y1 / kTile - t.y0 / kTile + 1);
+        }
         frame_keys[f] = keys;
-        frame_triangles[f] = triangles;
+        frame_triangles[f] = frame_crossables[f].size();
         frame_items[f] = items;
     });
     for (int f = 0; f < frames; ++f) {
@@ -208,7 +218,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // triangle adds one to its box with four updates, and the starts loop sums them up.
     const std::size_t corners = std::size_t(nx + 1) * std::size_t(ny + 1);
     std::vector<std::int32_t> room_corners;
-    std::vector<std::uint32_t> row_above;
+    std::vector<std::uint32_t> slot_base;
     // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
     // buffers, frame by frame on the host's threads: the planning counts give every frame its place.
     struct Gathered {
@@ -236,19 +246,21 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             std::uint32_t* item = item_out + std::size_t(frame_base[slot].items) * 2;
             std::int32_t* corner = room_corners.data() + slot * corners;
             const std::size_t row = std::size_t(nx + 1);
-            for_each_crossable(frame, nx, ny, [&](const fixed::Triangle& t, int x0, int x1, int y0, int y1) {
+            for (const Crossable& crossable : frame_crossables[std::size_t(batch_first) + slot]) {
+                const fixed::Triangle& t = frame.triangles[crossable.triangle];
+                const std::size_t x0 = crossable.x0, x1 = crossable.x1, y0 = crossable.y0, y1 = crossable.y1;
                 triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
-                ++corner[std::size_t(y0) * row + std::size_t(x0)];
-                --corner[std::size_t(y0) * row + std::size_t(x1 + 1)];
-                --corner[std::size_t(y1 + 1) * row + std::size_t(x0)];
-                ++corner[std::size_t(y1 + 1) * row + std::size_t(x1 + 1)];
-                for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty)
-                    for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
+                ++corner[y0 * row + x0];
+                --corner[y0 * row + x1 + 1];
+                --corner[(y1 + 1) * row + x0];
+                ++corner[(y1 + 1) * row + x1 + 1];
+                for (std::size_t ty = y0 / kTile; ty <= y1 / kTile; ++ty)
+                    for (std::size_t tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
                         *item++ = index;
                         *item++ = std::uint32_t(tx) | (std::uint32_t(ty) << 16);
                     }
                 ++index;
-            });
+            }
         });
         return total;
     };
@@ -286,30 +298,45 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 }
                 any_work = true;
                 {
-                    // Stretches in bucket order; every cursor starts at its bucket's start.
+                    // Stretches in bucket order; every cursor starts at its bucket's start. A frame's
+                    // rooms add up to its planned keys, so every frame knows where its stretches
+                    // begin and the frames go on the host's threads.
                     std::uint32_t* starts = bucket_start.mapped<std::uint32_t>().data();
                     std::uint32_t* cursors = bucket_cursor.mapped<std::uint32_t>().data();
-                    // Each column's frames with room.
-                    std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
-                    std::uint32_t next = 0;
-                    std::fill_n(frames_with_room, columns, 0u);
-                    std::uint32_t bucket = 0;
-                    for (std::uint32_t slot = 0; slot < std::uint32_t(batch_frames); ++slot) {
-                        const std::int32_t* corner = room_corners.data() + std::size_t(slot) * corners;
-                        row_above.assign(std::size_t(nx), 0u);
-                        for (std::uint32_t column = 0, y = 0; y < std::uint32_t(ny); ++y) {
+                    slot_base.resize(std::size_t(batch_frames) + 1);
+                    slot_base[0] = 0;
+                    for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot)
+                        slot_base[slot + 1] = slot_base[slot] + std::uint32_t(frame_keys[std::size_t(batch_first) + slot]);
+                    parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
+                        const std::int32_t* corner = room_corners.data() + slot * corners;
+                        std::vector<std::uint32_t> row_above(std::size_t(nx), 0u);
+                        std::uint32_t next = slot_base[slot];
+                        std::size_t bucket = slot * columns;
+                        for (std::size_t y = 0; y < std::size_t(ny); ++y) {
                             std::int32_t row_sum = 0;
-                            for (std::uint32_t x = 0; x < std::uint32_t(nx); ++x, ++column, ++bucket) {
-                                row_sum += corner[std::size_t(y) * std::size_t(nx + 1) + x];
+                            for (std::size_t x = 0; x < std::size_t(nx); ++x, ++bucket) {
+                                row_sum += corner[y * std::size_t(nx + 1) + x];
                                 const std::uint32_t room = row_above[x] + std::uint32_t(row_sum);
                                 row_above[x] = room;
                                 starts[bucket] = cursors[bucket] = next;
                                 next += room;
-                                frames_with_room[column] |= room != 0 ? 1u << slot : 0u;
                             }
                         }
-                    }
-                    starts[bucket] = next;
+                    });
+                    starts[std::size_t(batch_frames) * columns] = slot_base[std::size_t(batch_frames)];
+                    // Each column's frames with room (bucket rooms are differences of starts), in
+                    // stretches of columns on the host's threads.
+                    std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
+                    constexpr std::size_t kStretches = 16;
+                    parallel_for(kStretches, [&](std::size_t stretch) {
+                        const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
+                        std::fill(frames_with_room + first, frames_with_room + last, 0u);
+                        for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
+                            const std::uint32_t* start = starts + slot * columns;
+                            for (std::size_t column = first; column < last; ++column)
+                                frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
+                        }
+                    });
                     // Both lists empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
                     std::uint32_t* list_heads = lists.mapped<std::uint32_t>().data();
                     for (int list = 0; list < 2; ++list) {
