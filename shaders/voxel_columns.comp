@@ -6,26 +6,29 @@
 // layer's occupancy word, which goes into the mask. Only layers between the column's first and
 // last flip are visited. Work scales with the column's crossings and span, not frames x layers.
 //
-// The kernel is built three times, by the specialisation constant STAGE, and dispatched in order:
+// The kernel is built five times, by the specialisation constant STAGE, and dispatched in order:
 //   FLIP_SMALL, one invocation per column: the buckets of at most REGISTER_KEYS keys (most of
 //     them), sorted in registers by a sorting network; each column's span of flips.
-//     It lists the larger buckets, and counts the workgroups of the next two stages' dispatches.
-//   FLIP_LARGE, one invocation per listed bucket of up to LARGE_KEYS keys, sorted in registers by a
-//     bitonic network. Frames of one column share flip words and spans, so these go in by atomics.
+//     It lists the larger buckets, and counts the workgroups of the next three stages' dispatches.
+//   FLIP_MEDIUM, one invocation per listed bucket of up to MEDIUM_KEYS keys, sorted in registers by
+//     a bitonic network. Frames of one column share flip words and spans, so these go in by atomics.
+//   FLIP_LARGE, the same for the buckets of up to LARGE_KEYS keys.
 //   FLIP_HUGE, the same for the buckets of more than LARGE_KEYS keys (rare), sorted in the key list.
 //   WRITE, one invocation per column: the XOR up the column's span.
 // A column with more crossings than MAX_COLUMN_CROSSINGS is skipped and flagged (FLIP_SMALL marks
-// its span, WRITE leaves it), and the host redoes the batch with fewer frames. On lavapipe a sorting loop costs every invocation that
-// passes it, taken or not, so the large buckets' loops have a kernel of their own.
+// its span, WRITE leaves it), and the host redoes the batch with fewer frames. On lavapipe a sorting
+// network or loop costs every invocation that passes it, taken or not, so each size of bucket has a
+// kernel of its own.
 // Loop work per invocation is at most frames, plus MAX_COLUMN_CROSSINGS * (log2 MAX_COLUMN_CROSSINGS
 // + 2) for a large bucket's sort and walk, or slab_layers for the XOR.
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const uint MAX_COLUMN_CROSSINGS = 1024;
 layout(constant_id = 2) const uint STAGE = 0;
-const uint FLIP_SMALL = 0, FLIP_LARGE = 1, FLIP_HUGE = 2, WRITE = 3;
+const uint FLIP_SMALL = 0, FLIP_LARGE = 1, FLIP_HUGE = 2, WRITE = 3, FLIP_MEDIUM = 4;
 const uint INSERTION_SORT_MAX = 12;  // huge buckets up to this size sort by insertion, larger ones by heap sort
 const uint REGISTER_KEYS = 8;         // FLIP_SMALL's largest bucket
+const uint MEDIUM_KEYS = 16;          // FLIP_MEDIUM's largest bucket
 const uint LARGE_KEYS = 32;           // FLIP_LARGE's largest bucket
 const uint MAX_GROUPS = 65535;        // an indirect dispatch's workgroups at most (the least limit Vulkan allows)
 const uint NO_KEY = 0xffffffffu;       // above every key: pads a small bucket to REGISTER_KEYS
@@ -56,7 +59,8 @@ layout(std430, set = 0, binding = 10) buffer HugeBuckets { uint huge_buckets[]; 
 struct List {
     uint groups_x, groups_y, groups_z, count;
 };
-layout(std430, set = 0, binding = 11) buffer Lists { List large_list; List huge_list; };
+layout(std430, set = 0, binding = 11) buffer Lists { List large_list; List huge_list; List medium_list; };
+layout(std430, set = 0, binding = 12) buffer MediumBuckets { uint medium_buckets[]; };  // FLIP_MEDIUM's
 
 layout(push_constant) uniform Params {
     uint item_base;   // first column
@@ -180,7 +184,11 @@ void flip_small(uint column) {
         total += n;
         if (n > REGISTER_KEYS) {  // the next stages'
             uint bucket = bucket_of(column, s);
-            if (n <= LARGE_KEYS) {
+            if (n <= MEDIUM_KEYS) {
+                uint index = atomicAdd(medium_list.count, 1u);
+                medium_buckets[index] = bucket;
+                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(medium_list.groups_x, 1u);
+            } else if (n <= LARGE_KEYS) {
                 uint index = atomicAdd(large_list.count, 1u);
                 large_buckets[index] = bucket;
                 if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(large_list.groups_x, 1u);
@@ -316,6 +324,62 @@ void flip_large(uint bucket) {
     atomicMax(spans[column].y, last);
 }
 
+// Key i of k0..k15, by a tree of selects.
+#define PICK16(i) (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k15 : k14) : (((i) & 1u) != 0u ? k13 : k12)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k11 : k10) : (((i) & 1u) != 0u ? k9 : k8))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0))))
+
+void flip_medium(uint bucket) {
+    uint start = start_of(bucket);
+    uint n = end_of(bucket) - start;
+    uint column = column_of(bucket);
+    uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
+    uint k4 = key_at(start, 4u, n), k5 = key_at(start, 5u, n), k6 = key_at(start, 6u, n), k7 = key_at(start, 7u, n);
+    uint k8 = key_at(start, 8u, n), k9 = key_at(start, 9u, n), k10 = key_at(start, 10u, n), k11 = key_at(start, 11u, n);
+    uint k12 = key_at(start, 12u, n), k13 = key_at(start, 13u, n), k14 = key_at(start, 14u, n), k15 = key_at(start, 15u, n);
+    // Batcher's bitonic sorting network for 16 keys (80 comparators): FLIP_LARGE's first four merges,
+    // on k0..k15 alone.
+    /* merge 2, stride 1 */
+    ORDER(k0, k1) ORDER(k3, k2) ORDER(k4, k5) ORDER(k7, k6) ORDER(k8, k9) ORDER(k11, k10) ORDER(k12, k13) ORDER(k15, k14)
+    /* merge 4, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k6, k4) ORDER(k7, k5) ORDER(k8, k10) ORDER(k9, k11) ORDER(k14, k12) ORDER(k15, k13)
+    /* merge 4, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k5, k4) ORDER(k7, k6) ORDER(k8, k9) ORDER(k10, k11) ORDER(k13, k12) ORDER(k15, k14)
+    /* merge 8, stride 4 */
+    ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7) ORDER(k12, k8) ORDER(k13, k9) ORDER(k14, k10) ORDER(k15, k11)
+    /* merge 8, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7) ORDER(k10, k8) ORDER(k11, k9) ORDER(k14, k12) ORDER(k15, k13)
+    /* merge 8, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7) ORDER(k9, k8) ORDER(k11, k10) ORDER(k13, k12) ORDER(k15, k14)
+    /* merge 16, stride 8 */
+    ORDER(k0, k8) ORDER(k1, k9) ORDER(k2, k10) ORDER(k3, k11) ORDER(k4, k12) ORDER(k5, k13) ORDER(k6, k14) ORDER(k7, k15)
+    /* merge 16, stride 4 */
+    ORDER(k0, k4) ORDER(k1, k5) ORDER(k2, k6) ORDER(k3, k7) ORDER(k8, k12) ORDER(k9, k13) ORDER(k10, k14) ORDER(k11, k15)
+    /* merge 16, stride 2 */
+    ORDER(k0, k2) ORDER(k1, k3) ORDER(k4, k6) ORDER(k5, k7) ORDER(k8, k10) ORDER(k9, k11) ORDER(k12, k14) ORDER(k13, k15)
+    /* merge 16, stride 1 */
+    ORDER(k0, k1) ORDER(k2, k3) ORDER(k4, k5) ORDER(k6, k7) ORDER(k8, k9) ORDER(k10, k11) ORDER(k12, k13) ORDER(k14, k15)
+    int winding = 0;
+    bool inside = false;
+    uint flip_bits = 0u;
+    WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
+    WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, k8, 7u)
+    WALK_BIT(k8, k9, 8u) WALK_BIT(k9, k10, 9u) WALK_BIT(k10, k11, 10u) WALK_BIT(k11, k12, 11u)
+    WALK_BIT(k12, k13, 12u) WALK_BIT(k13, k14, 13u) WALK_BIT(k14, k15, 14u) WALK_BIT(k15, NO_KEY, 15u)
+    if (flip_bits == 0u) return;
+    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
+    uint flip_base = column * uint(params.slab_layers);
+    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {
+        uint i = uint(findLSB(pending));
+        atomicXor(toggles[flip_base + (PICK16(i) >> 1)], bit);
+    }
+    uint i = uint(findLSB(flip_bits));
+    int first = int(PICK16(i) >> 1);
+    i = uint(findMSB(flip_bits));
+    // Still inside after the last crossing (the closing ones lie above the slab): to the top.
+    int last = inside ? params.slab_layers - 1 : int(PICK16(i) >> 1);
+    atomicMin(spans[column].x, first);
+    atomicMax(spans[column].y, last);
+}
+
 void flip_huge(uint bucket) {
     uint start = start_of(bucket);
     uint n = end_of(bucket) - start;
@@ -367,6 +431,10 @@ void main() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     if (STAGE == FLIP_LARGE) {
         for (uint i = gl_GlobalInvocationID.x; i < large_list.count; i += stride) flip_large(large_buckets[i]);
+        return;
+    }
+    if (STAGE == FLIP_MEDIUM) {
+        for (uint i = gl_GlobalInvocationID.x; i < medium_list.count; i += stride) flip_medium(medium_buckets[i]);
         return;
     }
     if (STAGE == FLIP_HUGE) {

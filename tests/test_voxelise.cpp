@@ -222,7 +222,8 @@ TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
 // Stacked slabs cross their shared columns twice each per frame. Ten slabs (20 crossings) put
 // every bucket beyond the register sort of 8 keys into the bitonic one of 32; twenty slabs (40)
 // beyond that into the sort in the key list (heap sort past 12 keys). Half of the columns of
-// each stack hold half as many slabs, so both kinds of bucket meet in one batch. The triangles
+// each stack hold half as many slabs (10 and 20 crossings: the bitonic sorts of 16 and 32 keys),
+// so two kinds of bucket meet in one batch. The triangles
 // are shuffled, so the crossings reach their buckets in every order the sorts must handle. 40
 // frames fill a whole word and spill into a second one; the slabs thicken frame by frame so no
 // two frames agree.

@@ -52,10 +52,12 @@ std::vector<Crossable> crossables_of(const PreparedFrame& frame, int nx, int ny)
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
-// again (as texels), frames with room per column, spans, large and huge buckets, their lists.
+// again (as texels), frames with room per column, spans, large and huge buckets, the lists of
+// larger buckets, medium buckets.
 std::vector<Binding> column_bindings() {
     return {Binding::Storage, Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage,
-            Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage};
+            Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage,
+            Binding::Storage};
 }
 
 }  // namespace
@@ -66,6 +68,7 @@ VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
       raster_(context, voxel_raster_spv, {Binding::Texels128, Binding::Texels32, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
               {kWorkgroup, kTile}),
       flip_small_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 0u}),
+      flip_medium_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 4u}),
       flip_large_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 1u}),
       flip_huge_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 2u}),
       write_columns_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 3u}) {}
@@ -199,11 +202,13 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     ensure_capacity(context_, b.spans, layer_bytes * 2, Buffer::Memory::Device);
     ensure_capacity(context_, b.large_buckets, bucket_bytes, Buffer::Memory::Device);
     ensure_capacity(context_, b.huge_buckets, bucket_bytes, Buffer::Memory::Device);
-    ensure_capacity(context_, b.lists, 32, Buffer::Memory::Host);
+    ensure_capacity(context_, b.medium_buckets, bucket_bytes, Buffer::Memory::Device);
+    ensure_capacity(context_, b.lists, 48, Buffer::Memory::Host);
     Buffer &toggles = *b.toggles, &bucket_start = *b.bucket_start, &bucket_cursor = *b.bucket_cursor, &keys = *b.keys;
     Buffer& overflow = *b.overflow;
     Buffer& column_frames = *b.column_frames;
     Buffer &spans = *b.spans, &large_buckets = *b.large_buckets, &huge_buckets = *b.huge_buckets, &lists = *b.lists;
+    Buffer& medium_buckets = *b.medium_buckets;
     std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
     most_column_crossings = 0;
     std::unique_ptr<Buffer>& triangles = b.triangles;
@@ -337,9 +342,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                                 frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
                         }
                     });
-                    // Both lists empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
+                    // Every list empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
                     std::uint32_t* list_heads = lists.mapped<std::uint32_t>().data();
-                    for (int list = 0; list < 2; ++list) {
+                    for (int list = 0; list < 3; ++list) {
                         list_heads[4 * list] = 0;
                         list_heads[4 * list + 1] = list_heads[4 * list + 2] = 1;
                         list_heads[4 * list + 3] = 0;
@@ -347,7 +352,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 }
                 auto raster_set = raster_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
                 auto columns_set = flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
-                                                  &large_buckets, &huge_buckets, &lists});
+                                                  &large_buckets, &huge_buckets, &lists, &medium_buckets});
                 const std::uint32_t items = gathered.items;
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers};
 
@@ -362,8 +367,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                                                  std::uint32_t(batch_first == word_first && batch_frames == word_last - word_first), mask_base};
                 sequence.dispatch(flip_small_, columns_set, column_params, columns);
                 // The small buckets' flips and spans, and the lists of larger ones, must be in place
-                // before the larger ones' atomics add theirs (the two lists' buckets are apart).
+                // before the larger ones' atomics add theirs (the three lists' buckets are apart).
                 sequence.barrier();
+                sequence.dispatch_indirect(flip_medium_, columns_set, column_params, lists, 32);
                 sequence.dispatch_indirect(flip_large_, columns_set, column_params, lists, 0);
                 sequence.dispatch_indirect(flip_huge_, columns_set, column_params, lists, 16);
                 // Every flip and span must be in place before the columns are written.

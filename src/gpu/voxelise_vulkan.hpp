@@ -5,8 +5,8 @@
 //   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
 //   voxel_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
 //                    switches between zero and non-zero, and runs an XOR up each column over the
-//                    flips: the occupancy words. Three stages sort buckets by size (in registers
-//                    up to 8 and up to 32 keys, in the key list beyond), a fourth writes.
+//                    flips: the occupancy words. Four stages sort buckets by size (in registers
+//                    up to 8, 16 and 32 keys, in the key list beyond), a fifth writes.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
 // Lavapipe runs a storage-buffer access or an atomic as a loop over the lanes, taken or not, and a
 // texel fetch as one gather; so read-only inputs are texel views, and buffer accesses sit outside
@@ -65,6 +65,7 @@ private:
     VoxeliserOptions options_;
     Kernel raster_;
     Kernel flip_small_;     // voxel_columns.comp, stage FLIP_SMALL
+    Kernel flip_medium_;    // voxel_columns.comp, stage FLIP_MEDIUM
     Kernel flip_large_;     // voxel_columns.comp, stage FLIP_LARGE
     Kernel flip_huge_;      // voxel_columns.comp, stage FLIP_HUGE
     Kernel write_columns_;  // voxel_columns.comp, stage WRITE
@@ -73,10 +74,10 @@ private:
     static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
     struct Buffers {
         std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow, column_frames, spans, large_buckets, huge_buckets, lists;
-        std::unique_ptr<Buffer> triangles, work_items;
-        std::array<std::unique_ptr<Buffer>*, 13> all() {
-            return {&mask,  &toggles,       &bucket_start, &bucket_cursor, &keys,      &overflow,   &column_frames,
-                    &spans, &large_buckets, &huge_buckets, &lists,         &triangles, &work_items};
+        std::unique_ptr<Buffer> medium_buckets, triangles, work_items;
+        std::array<std::unique_ptr<Buffer>*, 14> all() {
+            return {&mask,          &toggles,       &bucket_start, &bucket_cursor, &keys,           &overflow,  &column_frames,
+                    &spans,         &large_buckets, &huge_buckets, &lists,         &medium_buckets, &triangles, &work_items};
         }
     };
     Buffers buffers_;
