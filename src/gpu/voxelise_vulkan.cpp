@@ -40,6 +40,7 @@ static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 
 std::vector<Crossable> crossables_of(const PreparedFrame& frame, int nx, int ny) {
     std::vector<Crossable> crossables;
+    crossables.reserve(frame.triangles.size());
     for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
         fixed::Oriented oriented;
         if (!fixed::orient(frame.triangles[i], oriented)) continue;
