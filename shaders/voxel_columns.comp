@@ -54,12 +54,13 @@ layout(set = 0, binding = 7) uniform usamplerBuffer column_frames;  // per colum
 layout(std430, set = 0, binding = 8) buffer Spans { ivec2 spans[]; };
 layout(std430, set = 0, binding = 9) buffer LargeBuckets { uint large_buckets[]; };  // FLIP_LARGE's
 layout(std430, set = 0, binding = 10) buffer HugeBuckets { uint huge_buckets[]; };   // FLIP_HUGE's
-// The host sets {0, 1, 1, 0} twice before every batch: each list's indirect dispatch (x, y, z), then
-// its length. x counts workgroups up to the group count limit; the stage loops past it.
+// The host sets {0, 1, 1, 0} for each list before every batch: its indirect dispatch (x, y, z),
+// then its length. x counts workgroups up to the group count limit; the stage loops past it.
 struct List {
     uint groups_x, groups_y, groups_z, count;
 };
-layout(std430, set = 0, binding = 11) buffer Lists { List large_list; List huge_list; List medium_list; };
+const uint LARGE_LIST = 0, HUGE_LIST = 1, MEDIUM_LIST = 2;  // at byte offsets 0, 16 and 32
+layout(std430, set = 0, binding = 11) buffer Lists { List lists[3]; };
 layout(std430, set = 0, binding = 12) buffer MediumBuckets { uint medium_buckets[]; };  // FLIP_MEDIUM's
 
 layout(push_constant) uniform Params {
@@ -171,6 +172,14 @@ void write_column(uint column, int first, int last) {
     }
 }
 
+// The next place in list `list`; every workgroup's first place also counts a workgroup of the
+// list's indirect dispatch.
+uint take_place(uint list) {
+    uint index = atomicAdd(lists[list].count, 1u);
+    if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(lists[list].groups_x, 1u);
+    return index;
+}
+
 void flip_small(uint column) {
     uint with_room = texelFetch(column_frames, int(column)).x;
     int first = params.slab_layers, last = -1;
@@ -184,19 +193,9 @@ void flip_small(uint column) {
         total += n;
         if (n > REGISTER_KEYS) {  // the next stages'
             uint bucket = bucket_of(column, s);
-            if (n <= MEDIUM_KEYS) {
-                uint index = atomicAdd(medium_list.count, 1u);
-                medium_buckets[index] = bucket;
-                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(medium_list.groups_x, 1u);
-            } else if (n <= LARGE_KEYS) {
-                uint index = atomicAdd(large_list.count, 1u);
-                large_buckets[index] = bucket;
-                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(large_list.groups_x, 1u);
-            } else {
-                uint index = atomicAdd(huge_list.count, 1u);
-                huge_buckets[index] = bucket;
-                if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(huge_list.groups_x, 1u);
-            }
+            if (n <= MEDIUM_KEYS) medium_buckets[take_place(MEDIUM_LIST)] = bucket;
+            else if (n <= LARGE_KEYS) large_buckets[take_place(LARGE_LIST)] = bucket;
+            else huge_buckets[take_place(HUGE_LIST)] = bucket;
             continue;
         }
         uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
@@ -235,6 +234,24 @@ void flip_small(uint column) {
     }
     spans[column] = ivec2(first, last);
 }
+
+// The end of a larger bucket's walk: its flips and its column's span go in by atomics (frames of
+// one column share them). PICK is the select tree of the bucket's registers.
+#define ADD_FLIPS(PICK)                                                                 \
+    if (flip_bits == 0u) return;                                                        \
+    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));                       \
+    uint flip_base = column * uint(params.slab_layers);                                 \
+    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {            \
+        uint i = uint(findLSB(pending));                                                \
+        atomicXor(toggles[flip_base + (PICK(i) >> 1)], bit);                            \
+    }                                                                                   \
+    uint i = uint(findLSB(flip_bits));                                                  \
+    int first = int(PICK(i) >> 1);                                                      \
+    i = uint(findMSB(flip_bits));                                                       \
+    /* Still inside after the last crossing (the closing ones lie above the slab): to the top. */ \
+    int last = inside ? params.slab_layers - 1 : int(PICK(i) >> 1);                     \
+    atomicMin(spans[column].x, first);                                                  \
+    atomicMax(spans[column].y, last);
 
 // Key i of k0..k31, by a tree of selects: registers cannot be indexed.
 #define PICK32(i) (((i) & 16u) != 0u ? (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k31 : k30) : (((i) & 1u) != 0u ? k29 : k28)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k27 : k26) : (((i) & 1u) != 0u ? k25 : k24))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k23 : k22) : (((i) & 1u) != 0u ? k21 : k20)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k19 : k18) : (((i) & 1u) != 0u ? k17 : k16)))) : (((i) & 8u) != 0u ? (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k15 : k14) : (((i) & 1u) != 0u ? k13 : k12)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k11 : k10) : (((i) & 1u) != 0u ? k9 : k8))) : (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0)))))
@@ -308,20 +325,7 @@ void flip_large(uint bucket) {
     WALK_BIT(k20, k21, 20u) WALK_BIT(k21, k22, 21u) WALK_BIT(k22, k23, 22u) WALK_BIT(k23, k24, 23u)
     WALK_BIT(k24, k25, 24u) WALK_BIT(k25, k26, 25u) WALK_BIT(k26, k27, 26u) WALK_BIT(k27, k28, 27u)
     WALK_BIT(k28, k29, 28u) WALK_BIT(k29, k30, 29u) WALK_BIT(k30, k31, 30u) WALK_BIT(k31, NO_KEY, 31u)
-    if (flip_bits == 0u) return;
-    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
-    uint flip_base = column * uint(params.slab_layers);
-    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {
-        uint i = uint(findLSB(pending));
-        atomicXor(toggles[flip_base + (PICK32(i) >> 1)], bit);
-    }
-    uint i = uint(findLSB(flip_bits));
-    int first = int(PICK32(i) >> 1);
-    i = uint(findMSB(flip_bits));
-    // Still inside after the last crossing (the closing ones lie above the slab): to the top.
-    int last = inside ? params.slab_layers - 1 : int(PICK32(i) >> 1);
-    atomicMin(spans[column].x, first);
-    atomicMax(spans[column].y, last);
+    ADD_FLIPS(PICK32)
 }
 
 // Key i of k0..k15, by a tree of selects.
@@ -364,20 +368,7 @@ void flip_medium(uint bucket) {
     WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, k8, 7u)
     WALK_BIT(k8, k9, 8u) WALK_BIT(k9, k10, 9u) WALK_BIT(k10, k11, 10u) WALK_BIT(k11, k12, 11u)
     WALK_BIT(k12, k13, 12u) WALK_BIT(k13, k14, 13u) WALK_BIT(k14, k15, 14u) WALK_BIT(k15, NO_KEY, 15u)
-    if (flip_bits == 0u) return;
-    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
-    uint flip_base = column * uint(params.slab_layers);
-    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {
-        uint i = uint(findLSB(pending));
-        atomicXor(toggles[flip_base + (PICK16(i) >> 1)], bit);
-    }
-    uint i = uint(findLSB(flip_bits));
-    int first = int(PICK16(i) >> 1);
-    i = uint(findMSB(flip_bits));
-    // Still inside after the last crossing (the closing ones lie above the slab): to the top.
-    int last = inside ? params.slab_layers - 1 : int(PICK16(i) >> 1);
-    atomicMin(spans[column].x, first);
-    atomicMax(spans[column].y, last);
+    ADD_FLIPS(PICK16)
 }
 
 void flip_huge(uint bucket) {
@@ -430,15 +421,15 @@ void main() {
     // over the rest of their list.
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     if (STAGE == FLIP_LARGE) {
-        for (uint i = gl_GlobalInvocationID.x; i < large_list.count; i += stride) flip_large(large_buckets[i]);
+        for (uint i = gl_GlobalInvocationID.x; i < lists[LARGE_LIST].count; i += stride) flip_large(large_buckets[i]);
         return;
     }
     if (STAGE == FLIP_MEDIUM) {
-        for (uint i = gl_GlobalInvocationID.x; i < medium_list.count; i += stride) flip_medium(medium_buckets[i]);
+        for (uint i = gl_GlobalInvocationID.x; i < lists[MEDIUM_LIST].count; i += stride) flip_medium(medium_buckets[i]);
         return;
     }
     if (STAGE == FLIP_HUGE) {
-        for (uint i = gl_GlobalInvocationID.x; i < huge_list.count; i += stride) flip_huge(huge_buckets[i]);
+        for (uint i = gl_GlobalInvocationID.x; i < lists[HUGE_LIST].count; i += stride) flip_huge(huge_buckets[i]);
         return;
     }
     uint index = spread_group(gl_WorkGroupID.x, gl_NumWorkGroups.x) * gl_WorkGroupSize.x + gl_LocalInvocationID.x;

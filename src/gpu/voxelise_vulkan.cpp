@@ -102,8 +102,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
     // also fit one buffer each.
     const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
-    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_triangles(std::size_t(frames), 0),
-        frame_items(std::size_t(frames), 0);
+    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_items(std::size_t(frames), 0);
     std::vector<std::vector<Crossable>> frame_crossables(static_cast<std::size_t>(frames));
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
@@ -115,15 +114,16 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             items += std::uint64_t(t.x1 / kTile - t.x0 / kTile + 1) * std::uint64_t(t.y1 / kTile - t.y0 / kTile + 1);
         }
         frame_keys[f] = keys;
-        frame_triangles[f] = frame_crossables[f].size();
         frame_items[f] = items;
     });
+    // A frame's triangles on the device: its crossable ones.
+    auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_crossables[f].size()); };
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
-        if (frame_triangles[std::size_t(f)] > triangle_limit || frame_items[std::size_t(f)] > item_limit)
+        if (frame_triangles(std::size_t(f)) > triangle_limit || frame_items[std::size_t(f)] > item_limit)
             throw Error(fmt::format("{}: the frame has {} triangles in {} work items, more than one {:.1f} MiB buffer holds "
                                     "({} triangles, {} work items); use --backend cpu",
-                                    frame.source, frame_triangles[std::size_t(f)], frame_items[std::size_t(f)],
+                                    frame.source, frame_triangles(std::size_t(f)), frame_items[std::size_t(f)],
                                     double(budget) / (1 << 20), triangle_limit, item_limit));
         if (frame_keys[std::size_t(f)] > key_limit)
             throw Error(fmt::format("{}: the frame's triangles cover up to {} voxel columns, more crossings than one "
@@ -159,11 +159,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         Batch batch;
         while (first + batch.frames < word_last && batch.frames < frames_limit) {
             const auto next = std::size_t(first + batch.frames);
-            if (batch.frames > 0 && (batch.keys + frame_keys[next] > key_room || batch.triangles + frame_triangles[next] > triangle_limit ||
+            if (batch.frames > 0 && (batch.keys + frame_keys[next] > key_room || batch.triangles + frame_triangles(next) > triangle_limit ||
                                      batch.items + frame_items[next] > item_limit))
                 break;
             batch.keys += frame_keys[next];
-            batch.triangles += frame_triangles[next];
+            batch.triangles += frame_triangles(next);
             batch.items += frame_items[next];
             ++batch.frames;
         }
@@ -236,7 +236,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         frame_base.resize(std::size_t(batch_frames));
         for (int slot = 0; slot < batch_frames; ++slot) {
             frame_base[std::size_t(slot)] = total;
-            total.triangles += std::uint32_t(frame_triangles[std::size_t(batch_first + slot)]);
+            total.triangles += std::uint32_t(frame_triangles(std::size_t(batch_first + slot)));
             total.items += std::uint32_t(frame_items[std::size_t(batch_first + slot)]);
         }
         room_corners.assign(corners * std::size_t(batch_frames), 0);
