@@ -26,18 +26,6 @@ int coverage_edge(int64_t w, bool top_left) {
     return int(clamp(w, -limit, limit)) - (top_left ? 0 : 1);
 }
 
-int64_t floor_div(int64_t n, int64_t d) {  // d > 0
-    return n >= 0 ? n / d : -((-n + d - 1) / d);
-}
-
-// Column index range whose centres (i + 1/2) lie in [lo, hi] (fixed point); empty when first > last.
-ivec2 centre_range(int lo, int hi) {
-    int64_t half_voxel = SUBVOXEL / 2;
-    int first = int(-floor_div(-(int64_t(lo) - half_voxel), SUBVOXEL));
-    int last = int(floor_div(int64_t(hi) - half_voxel, SUBVOXEL));
-    return ivec2(first, last);
-}
-
 // floor(n / d) for d > 0 without a 64-bit division (which lavapipe runs lane by lane): a float
 // estimate from d's reciprocal (1.0 / float(d)), exact to within one when |n / d| stays below a few
 // thousand (a crossing layer always does: it lies within the triangle's z range), then corrected

@@ -73,11 +73,19 @@ layout(push_constant) uniform Params {
     uint mask_base;   // the slab's first word in `mask`
 } params;
 
+// The push constants this batch's stages use, copied once at the top of main: on lavapipe a
+// push-constant read inside a branch or loop is a load per lane.
+uint columns;
+int slab_layers;
+int bit_offset;
+bool whole_word;
+uint mask_base;
+
 // Buckets lie frame by frame: bucket (column, slot) is slot * columns + column, so the raster's
 // slots and keys for one frame stay together in the caches.
-uint bucket_of(uint column, uint slot) { return slot * params.columns + column; }
-uint column_of(uint bucket) { return bucket % params.columns; }
-uint slot_of(uint bucket) { return bucket / params.columns; }
+uint bucket_of(uint column, uint slot) { return slot * columns + column; }
+uint column_of(uint bucket) { return bucket % columns; }
+uint slot_of(uint bucket) { return bucket / columns; }
 
 uint start_of(uint bucket) { return texelFetch(bucket_start, int(bucket)).x; }
 uint end_of(uint bucket) { return texelFetch(bucket_end, int(bucket)).x; }
@@ -157,17 +165,17 @@ uint key_at(uint start, uint i, uint n) {
 // The XOR up the column over its flips, from layer `first` to `last`. A batch that holds a whole
 // occupancy word writes the mask outright; smaller batches OR their frames' bits into it.
 void write_column(uint column, int first, int last) {
-    uint flip_base = column * uint(params.slab_layers);
+    uint flip_base = column * uint(slab_layers);
     uint word = 0u;
-    if (params.whole_word != 0u) {
+    if (whole_word) {
         for (int z = first; z <= last; ++z) {
             word ^= toggles[flip_base + uint(z)];
-            mask[params.mask_base + uint(z) * params.columns + column] = word;
+            mask[mask_base + uint(z) * columns + column] = word;
         }
     } else {
         for (int z = first; z <= last; ++z) {
             word ^= toggles[flip_base + uint(z)];
-            if (word != 0u) mask[params.mask_base + uint(z) * params.columns + column] |= word;
+            if (word != 0u) mask[mask_base + uint(z) * columns + column] |= word;
         }
     }
 }
@@ -182,9 +190,9 @@ uint take_place(uint list) {
 
 void flip_small(uint column) {
     uint with_room = texelFetch(column_frames, int(column)).x;
-    int first = params.slab_layers, last = -1;
+    int first = slab_layers, last = -1;
     uint total = 0u;
-    uint flip_base = column * uint(params.slab_layers);
+    uint flip_base = column * uint(slab_layers);
     // Only the frames with room in this column: most columns see the surface in few of them.
     for (uint pending = with_room; pending != 0u; pending &= pending - 1u) {
         uint s = uint(findLSB(pending));
@@ -212,7 +220,7 @@ void flip_small(uint column) {
         uint flip_bits = 0u;
         WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
         WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, NO_KEY, 7u)
-        uint bit = 1u << (uint(params.bit_offset) + s);
+        uint bit = 1u << (uint(bit_offset) + s);
         for (uint pending_flips = flip_bits; pending_flips != 0u; pending_flips &= pending_flips - 1u) {
             uint i = uint(findLSB(pending_flips));
             toggles[flip_base + (PICK8(i) >> 1)] ^= bit;
@@ -224,7 +232,7 @@ void flip_small(uint column) {
             last = max(last, int(PICK8(i) >> 1));
         }
         // Still inside after the last crossing (the closing ones lie above the slab): to the top.
-        if (inside) last = params.slab_layers - 1;
+        if (inside) last = slab_layers - 1;
     }
     if (total > MAX_COLUMN_CROSSINGS) {
         // Skipped: its flips are left for the next batch's clear, and nothing is written.
@@ -239,8 +247,8 @@ void flip_small(uint column) {
 // one column share them). PICK is the select tree of the bucket's registers.
 #define ADD_FLIPS(PICK)                                                                 \
     if (flip_bits == 0u) return;                                                        \
-    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));                       \
-    uint flip_base = column * uint(params.slab_layers);                                 \
+    uint bit = 1u << (uint(bit_offset) + slot_of(bucket));                       \
+    uint flip_base = column * uint(slab_layers);                                 \
     for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {            \
         uint i = uint(findLSB(pending));                                                \
         atomicXor(toggles[flip_base + (PICK(i) >> 1)], bit);                            \
@@ -249,7 +257,7 @@ void flip_small(uint column) {
     int first = int(PICK(i) >> 1);                                                      \
     i = uint(findMSB(flip_bits));                                                       \
     /* Still inside after the last crossing (the closing ones lie above the slab): to the top. */ \
-    int last = inside ? params.slab_layers - 1 : int(PICK(i) >> 1);                     \
+    int last = inside ? slab_layers - 1 : int(PICK(i) >> 1);                     \
     atomicMin(spans[column].x, first);                                                  \
     atomicMax(spans[column].y, last);
 
@@ -378,9 +386,9 @@ void flip_huge(uint bucket) {
     // A bucket this large lies in a skipped column: no sort, whose work would be unbounded.
     if (n > MAX_COLUMN_CROSSINGS) return;
     sort_bucket(start, n);
-    uint bit = 1u << (uint(params.bit_offset) + slot_of(bucket));
-    uint flip_base = column * uint(params.slab_layers);
-    int first = params.slab_layers, last = -1;
+    uint bit = 1u << (uint(bit_offset) + slot_of(bucket));
+    uint flip_base = column * uint(slab_layers);
+    int first = slab_layers, last = -1;
     int winding = 0;
     bool inside = false;
     for (uint i = 0u; i < n; ++i) {
@@ -396,7 +404,7 @@ void flip_huge(uint bucket) {
             last = max(last, layer);
         }
     }
-    if (inside) last = params.slab_layers - 1;
+    if (inside) last = slab_layers - 1;
     if (first <= last) {
         atomicMin(spans[column].x, first);
         atomicMax(spans[column].y, last);
@@ -417,6 +425,11 @@ uint spread_group(uint group, uint groups) {
 }
 
 void main() {
+    columns = params.columns;
+    slab_layers = params.slab_layers;
+    bit_offset = params.bit_offset;
+    whole_word = params.whole_word != 0u;
+    mask_base = params.mask_base;
     // The listed stages run as many workgroups as FLIP_SMALL counted, up to MAX_GROUPS, and step
     // over the rest of their list.
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;

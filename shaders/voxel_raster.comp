@@ -5,7 +5,8 @@
 // goes into its bucket's next slot, where layer is the first voxel centre above the crossing,
 // relative to the slab (crossings below the slab count from its first layer; those above it
 // affect no voxel of the slab and are left out). The host gave every bucket room for one key per
-// triangle whose bounding box holds the column, so the slots never run out.
+// triangle whose row span holds the column (a conservative cross-section), so the slots never run
+// out, and each triangle's box of those spans bounds the columns tested.
 // Work per invocation is at most TILE*TILE columns, tested 8 x 8 at a time, then as many slot
 // takings as columns covered: well under lavapipe's loop cap.
 #extension GL_GOOGLE_include_directive : require
@@ -16,7 +17,9 @@ layout(constant_id = 1) const int TILE = 16;
 
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
 // storage-buffer load runs lane by lane.
-layout(set = 0, binding = 0) uniform isamplerBuffer triangles;  // 3 texels per triangle: a, b, c (xyz fixed point; a.w = frame slot)
+// 3 texels per triangle: a, b, c (xyz fixed point; a.w = frame slot; b.w = x0 | x1 << 16 and
+// c.w = y0 | y1 << 16, the box of the columns its cross-sections may hold, inside the grid).
+layout(set = 0, binding = 0) uniform isamplerBuffer triangles;
 layout(set = 0, binding = 1) uniform usamplerBuffer work_items; // 2 texels per item: triangle, tile x | tile y << 16
 // The next free key slot of each bucket.
 layout(std430, set = 0, binding = 2) buffer BucketCursors { uint bucket_cursor[]; };
@@ -34,6 +37,8 @@ layout(push_constant) uniform Params {
 void main() {
     uint item_index = params.work_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.work_count) return;
+    const int64_t z_begin = int64_t(params.z_begin), slab_layers = int64_t(params.slab_layers);
+    const uint nx = uint(params.nx), columns = uint(params.nx * params.ny);
     uint triangle = texelFetch(work_items, int(2u * item_index)).x;
     uint tile = texelFetch(work_items, int(2u * item_index + 1u)).x;
     int tile_x = int(tile & 0xffffu) * TILE;
@@ -41,20 +46,19 @@ void main() {
 
     ivec4 a4 = texelFetch(triangles, int(3u * triangle));
     ivec3 a = a4.xyz;
-    ivec3 b = texelFetch(triangles, int(3u * triangle + 1u)).xyz;
-    ivec3 c = texelFetch(triangles, int(3u * triangle + 2u)).xyz;
+    ivec4 b4 = texelFetch(triangles, int(3u * triangle + 1u));
+    ivec4 c4 = texelFetch(triangles, int(3u * triangle + 2u));
+    ivec3 b = b4.xyz, c = c4.xyz;
     uint frame_slot = uint(a4.w);
     int64_t area = edge_function(a.xy, b.xy, c.xy);
     if (area == 0) return;  // seen edge-on from above: the vertical ray never crosses it
     uint upward = area > 0 ? 0u : 1u;  // a downward-facing face below a point adds +1 to its winding
     if (area < 0) { ivec3 t = b; b = c; c = t; area = -area; }
 
-    ivec2 range_x = centre_range(min(a.x, min(b.x, c.x)), max(a.x, max(b.x, c.x)));
-    ivec2 range_y = centre_range(min(a.y, min(b.y, c.y)), max(a.y, max(b.y, c.y)));
-    int x_first = max(max(range_x.x, tile_x), 0);
-    int x_last = min(min(range_x.y, tile_x + TILE - 1), params.nx - 1);
-    int y_first = max(max(range_y.x, tile_y), 0);
-    int y_last = min(min(range_y.y, tile_y + TILE - 1), params.ny - 1);
+    int x_first = max(b4.w & 0xffff, tile_x);
+    int x_last = min(int(uint(b4.w) >> 16), tile_x + TILE - 1);
+    int y_first = max(c4.w & 0xffff, tile_y);
+    int y_last = min(int(uint(c4.w) >> 16), tile_y + TILE - 1);
 
     // The edge functions and the crossing numerator are linear in the sample point, so they are
     // evaluated exactly once at the first column and then stepped by integer additions (the same
@@ -122,10 +126,10 @@ void main() {
                 }
                 int x = block_x + (bit & 7), y = block_y + (bit >> 3);
                 int64_t numerator = block_numerator + int64_t(bit & 7) * step_x_numerator + int64_t(bit >> 3) * step_y_numerator;
-                int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - int64_t(params.z_begin);
+                int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - z_begin;
                 // Above this slab: affects no voxel here. Below it: counts from its first layer.
-                if (layer < int64_t(params.slab_layers)) {
-                    uint bucket = frame_slot * uint(params.nx * params.ny) + uint(y) * uint(params.nx) + uint(x);
+                if (layer < slab_layers) {
+                    uint bucket = frame_slot * columns + uint(y) * nx + uint(x);
                     uint slot = atomicAdd(bucket_cursor[bucket], 1u);
                     keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
                 }

@@ -8,6 +8,7 @@
 
 #include "body/shapes.hpp"
 #include "core/error.hpp"
+#include "core/fixed_raster.hpp"
 #include "core/voxelise.hpp"
 #include "gpu/voxelise_vulkan.hpp"
 #include "reference/voxelise_reference.hpp"
@@ -53,6 +54,53 @@ TEST(Voxelise, ShapesAreClosedAndOutward) {
         EXPECT_GT(shapes::signed_volume(mesh), 0);
     }
     EXPECT_NEAR(shapes::signed_volume(shapes::box({0, 0, 0}, {1, 2, 3})), 6.0, 1e-12);
+}
+
+// The Vulkan planner sizes every bucket and bounds the raster's work by each row's cross-section of
+// a triangle. It must hold every column the exact test covers (else keys would overrun a bucket),
+// also where an edge or vertex lies exactly on a column centre, and it should be tight.
+TEST(Voxelise, CrossSectionsHoldEveryCoveredColumnAndLittleMore) {
+    std::mt19937 random(7);
+    const std::int32_t grid_extent = 1 << 17;  // the largest coordinates (2048 voxels of 64 units)
+    std::uniform_int_distribution<std::int32_t> base(0, grid_extent - 64 * 48), offset(0, 64 * 40), small(0, 64 * 2);
+    std::uniform_int_distribution<int> kind(0, 3);
+    std::size_t covered = 0, spanned = 0, triangles = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        const std::int32_t bx = base(random), by = base(random);
+        fixed::Triangle t{};
+        for (auto& v : t) {
+            switch (kind(random)) {
+                case 0: v = {bx + offset(random), by + offset(random), 0}; break;                         // anywhere
+                case 1: v = {bx + offset(random) / 64 * 64 + 32, by + offset(random) / 64 * 64 + 32, 0}; break;  // on a centre
+                case 2: v = {bx + small(random), by + offset(random), 0}; break;                          // a sliver
+                default: v = {bx + offset(random), by + offset(random) / 64 * 64 + 32, 0}; break;         // on a row's centre line
+            }
+            v.z = offset(random);
+        }
+        if (trial % 5 == 0) t[1].y = t[0].y;  // a level edge
+        fixed::Oriented oriented;
+        if (!fixed::orient(t, oriented)) continue;
+        ++triangles;
+        const int y0 = oriented.columns_y.first, y1 = oriented.columns_y.last;
+        if (y0 > y1) continue;
+        fixed::CrossSections sections(t, y0);
+        for (int y = y0; y <= y1; ++y) {
+            const fixed::IndexRange span = sections.row(y - y0);
+            for (int x = oriented.columns_x.first; x <= oriented.columns_x.last; ++x) {
+                std::int64_t layer = 0;
+                const bool crosses = fixed::column_crossing(oriented, x, y, layer);
+                const bool in_span = x >= span.first && x <= span.last;
+                covered += crosses ? 1 : 0;
+                spanned += in_span ? 1 : 0;
+                ASSERT_TRUE(!crosses || in_span) << "trial " << trial << ": column (" << x << ", " << y << ") is covered but outside the row's span ["
+                                                 << span.first << ", " << span.last << "]";
+            }
+        }
+    }
+    EXPECT_GT(triangles, 15000u);
+    EXPECT_GT(covered, 100000u);
+    // Extra columns only where a centre lies on an edge (the top-left rule gives it to one side).
+    EXPECT_LT(double(spanned), 1.05 * double(covered)) << spanned << " spanned, " << covered << " covered";
 }
 
 TEST(Voxelise, SphereMatchesReferenceAndVolume) {

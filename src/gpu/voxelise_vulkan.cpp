@@ -15,7 +15,9 @@ namespace amhv::gpu {
 namespace {
 
 struct GpuTriangle {
-    std::int32_t a[4], b[4], c[4];  // xyz fixed point; a[3] = frame slot in the batch
+    // xyz fixed point; a[3] = frame slot in the batch, b[3] and c[3] = its column box (x0 | x1 << 16,
+    // y0 | y1 << 16)
+    std::int32_t a[4], b[4], c[4];
 };
 static_assert(sizeof(GpuTriangle) == 48);
 
@@ -29,27 +31,76 @@ struct ColumnParams {
     std::uint32_t whole_word, mask_base;
 };
 
-// A triangle of a closed frame that a vertical ray can cross, with the columns its bounding box
-// clips to (the upper bound on the crossings it can write). Found once per call, while planning;
-// the batches' gathering reads them back instead of orienting every triangle again.
-struct Crossable {
-    std::uint32_t triangle;  // index in the frame
-    std::uint16_t x0, x1, y0, y1;
+// One row of a triangle's columns (first > last: none).
+struct RowSpan {
+    std::uint16_t first, last;
 };
 static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 
-std::vector<Crossable> crossables_of(const PreparedFrame& frame, int nx, int ny) {
+// A triangle of a closed frame that may cover a column centre: its rows' spans of columns (each row's
+// cross-section, fixed::CrossSection) and their box. A bucket's room is the spans that hold its
+// column, and the raster tests the box: both nearly as tight as the columns it covers (a box is
+// about 1.7 times as large, a bounding box 4 times at 10 mm). Found once per call, while planning;
+// the batches' gathering reads them back.
+struct Crossable {
+    std::uint32_t triangle;   // index in the frame
+    std::uint32_t first_row;  // the span of row y0 in the frame's list; rows y0..y1 follow
+    std::uint16_t x0, x1, y0, y1;
+};
+
+struct FramePlan {
     std::vector<Crossable> crossables;
-    crossables.reserve(frame.triangles.size());
+    std::vector<RowSpan> rows;
+    std::uint64_t keys = 0;   // the spans' columns: an upper bound on the frame's crossings
+    std::uint64_t items = 0;  // raster work items: the tiles its boxes touch
+};
+
+FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny, int tile) {
+    FramePlan plan;
+    // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
+    // and a kept one advances the counts (without branches, as below).
+    plan.crossables.resize(frame.triangles.size());
+    plan.rows.resize(frame.triangles.size() * 3);
+    std::size_t crossables = 0, rows_used = 0;
     for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
+        const fixed::Triangle& t = frame.triangles[i];
         fixed::Oriented oriented;
-        if (!fixed::orient(frame.triangles[i], oriented)) continue;
-        int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
-        int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
-        if (x0 > x1 || y0 > y1) continue;  // covers no column centre
-        crossables.push_back({std::uint32_t(i), std::uint16_t(x0), std::uint16_t(x1), std::uint16_t(y0), std::uint16_t(y1)});
+        if (!fixed::orient(t, oriented)) continue;
+        const int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
+        const int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
+        if (x0 > x1 || y0 > y1) continue;  // no column centre in its bounding box
+        const int height = y1 - y0 + 1;
+        if (rows_used + std::size_t(height) > plan.rows.size())
+            plan.rows.resize(std::max(plan.rows.size() * 2, rows_used + std::size_t(height)));
+        RowSpan* rows = plan.rows.data() + rows_used;
+        // Each row's span inside the bounding box, and the box of the non-empty ones. Without
+        // branches: whether a row is empty is as good as random.
+        const fixed::CrossSections sections(t, y0);
+        int box_x0 = nx, box_x1 = -1, box_y0 = ny, box_y1 = -1;
+        std::uint64_t keys = 0;
+        for (int row = 0; row < height; ++row) {
+            const fixed::IndexRange span = sections.row(row);
+            const int first = std::max(span.first, x0), last = std::min(span.last, x1);
+            const bool empty = first > last;
+            rows[row] = empty ? RowSpan{1, 0} : RowSpan{std::uint16_t(first), std::uint16_t(last)};
+            keys += empty ? 0u : std::uint64_t(last - first + 1);
+            box_x0 = empty ? box_x0 : std::min(box_x0, first);
+            box_x1 = empty ? box_x1 : std::max(box_x1, last);
+            box_y0 = empty ? box_y0 : std::min(box_y0, y0 + row);
+            box_y1 = empty ? box_y1 : y0 + row;
+        }
+        // Kept when it covers a column centre: its rows from the first to the last non-empty one.
+        const bool kept = keys != 0;
+        plan.crossables[crossables] = {std::uint32_t(i), std::uint32_t(rows_used + std::size_t(std::max(box_y0 - y0, 0))),
+                                       std::uint16_t(box_x0), std::uint16_t(box_x1), std::uint16_t(box_y0), std::uint16_t(box_y1)};
+        crossables += kept ? 1 : 0;
+        rows_used += kept ? std::size_t(box_y1 - y0 + 1) : 0;
+        plan.keys += keys;
+        plan.items += kept ? std::uint64_t(box_x1 / tile - box_x0 / tile + 1) * std::uint64_t(box_y1 / tile - box_y0 / tile + 1) : 0;
     }
-    return crossables;
+    plan.crossables.resize(crossables);
+    plan.rows.resize(rows_used);
+    return plan;
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
@@ -102,33 +153,26 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
     // also fit one buffer each.
     const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
-    std::vector<std::uint64_t> frame_keys(std::size_t(frames), 0), frame_items(std::size_t(frames), 0);
-    std::vector<std::vector<Crossable>> frame_crossables(static_cast<std::size_t>(frames));
+    std::vector<FramePlan> frame_plans(static_cast<std::size_t>(frames));
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
-        if (!frame.closed) return;  // the host's surface rule handles it
-        frame_crossables[f] = crossables_of(frame, nx, ny);
-        std::uint64_t keys = 0, items = 0;  // counted apart: neighbouring frames share cache lines
-        for (const Crossable& t : frame_crossables[f]) {
-            keys += std::uint64_t(t.x1 - t.x0 + 1) * std::uint64_t(t.y1 - t.y0 + 1);
-            items += std::uint64_t(t.x1 / kTile - t.x0 / kTile + 1) * std::uint64_t(t.y1 / kTile - t.y0 / kTile + 1);
-        }
-        frame_keys[f] = keys;
-        frame_items[f] = items;
+        if (frame.closed) frame_plans[f] = plan_frame(frame, nx, ny, kTile);  // else the host's surface rule handles it
     });
     // A frame's triangles on the device: its crossable ones.
-    auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_crossables[f].size()); };
+    auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_plans[f].crossables.size()); };
+    auto frame_keys = [&](std::size_t f) { return frame_plans[f].keys; };
+    auto frame_items = [&](std::size_t f) { return frame_plans[f].items; };
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
-        if (frame_triangles(std::size_t(f)) > triangle_limit || frame_items[std::size_t(f)] > item_limit)
+        if (frame_triangles(std::size_t(f)) > triangle_limit || frame_items(std::size_t(f)) > item_limit)
             throw Error(fmt::format("{}: the frame has {} triangles in {} work items, more than one {:.1f} MiB buffer holds "
                                     "({} triangles, {} work items); use --backend cpu",
-                                    frame.source, frame_triangles(std::size_t(f)), frame_items[std::size_t(f)],
+                                    frame.source, frame_triangles(std::size_t(f)), frame_items(std::size_t(f)),
                                     double(budget) / (1 << 20), triangle_limit, item_limit));
-        if (frame_keys[std::size_t(f)] > key_limit)
+        if (frame_keys(std::size_t(f)) > key_limit)
             throw Error(fmt::format("{}: the frame's triangles cover up to {} voxel columns, more crossings than one "
                                     "{:.1f} MiB storage buffer holds ({}); use a coarser voxel or --backend cpu",
-                                    frame.source, frame_keys[std::size_t(f)], double(budget) / (1 << 20), key_limit));
+                                    frame.source, frame_keys(std::size_t(f)), double(budget) / (1 << 20), key_limit));
     }
 
     // Split: z into slabs as tall as one mask buffer allows (usually the whole grid, so every frame
@@ -159,12 +203,12 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         Batch batch;
         while (first + batch.frames < word_last && batch.frames < frames_limit) {
             const auto next = std::size_t(first + batch.frames);
-            if (batch.frames > 0 && (batch.keys + frame_keys[next] > key_room || batch.triangles + frame_triangles(next) > triangle_limit ||
-                                     batch.items + frame_items[next] > item_limit))
+            if (batch.frames > 0 && (batch.keys + frame_keys(next) > key_room || batch.triangles + frame_triangles(next) > triangle_limit ||
+                                     batch.items + frame_items(next) > item_limit))
                 break;
-            batch.keys += frame_keys[next];
+            batch.keys += frame_keys(next);
             batch.triangles += frame_triangles(next);
-            batch.items += frame_items[next];
+            batch.items += frame_items(next);
             ++batch.frames;
         }
         return batch;
@@ -216,14 +260,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
 
-    // Host side of a batch: its triangles, one work item per (triangle, covered tile), and each
-    // bucket's stretch of the key list: a bucket (column, frame) gets room for one key per triangle
-    // of that frame whose bounding box holds the column, an upper bound on its crossings, so the
-    // raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
-    // Each frame's rooms are first a 2-D difference array over (nx + 1) x (ny + 1) corners: a
-    // triangle adds one to its box with four updates, and the starts loop sums them up.
-    const std::size_t corners = std::size_t(nx + 1) * std::size_t(ny + 1);
-    std::vector<std::int32_t> room_corners;
+    // Host side of a batch: its triangles, one work item per (triangle, tile its box touches), and
+    // each bucket's stretch of the key list: a bucket (column, frame) gets room for one key per
+    // triangle of that frame whose row span holds the column, an upper bound on its crossings, so
+    // the raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
+    // Each frame's rooms are first a difference array along the rows, (nx + 1) x ny: a row span
+    // adds one with two updates, and the starts loop sums them up.
+    const std::size_t room_row = std::size_t(nx + 1), room_edges_per_frame = room_row * std::size_t(ny);
+    std::vector<std::int32_t> room_edges;
     std::vector<std::uint32_t> slot_base;
     // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
     // buffers, frame by frame on the host's threads: the planning counts give every frame its place.
@@ -237,9 +281,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         for (int slot = 0; slot < batch_frames; ++slot) {
             frame_base[std::size_t(slot)] = total;
             total.triangles += std::uint32_t(frame_triangles(std::size_t(batch_first + slot)));
-            total.items += std::uint32_t(frame_items[std::size_t(batch_first + slot)]);
+            total.items += std::uint32_t(frame_items(std::size_t(batch_first + slot)));
         }
-        room_corners.assign(corners * std::size_t(batch_frames), 0);
+        room_edges.assign(room_edges_per_frame * std::size_t(batch_frames), 0);
         if (total.items == 0) return total;
         ensure_host_capacity(context_, triangles, std::uint64_t(total.triangles) * sizeof(GpuTriangle));
         ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
@@ -250,16 +294,20 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             if (!frame.closed) return;
             std::uint32_t index = frame_base[slot].triangles;
             std::uint32_t* item = item_out + std::size_t(frame_base[slot].items) * 2;
-            std::int32_t* corner = room_corners.data() + slot * corners;
-            const std::size_t row = std::size_t(nx + 1);
-            for (const Crossable& crossable : frame_crossables[std::size_t(batch_first) + slot]) {
+            std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
+            const FramePlan& plan = frame_plans[std::size_t(batch_first) + slot];
+            for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
                 const std::size_t x0 = crossable.x0, x1 = crossable.x1, y0 = crossable.y0, y1 = crossable.y1;
-                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
-                ++corner[y0 * row + x0];
-                --corner[y0 * row + x1 + 1];
-                --corner[(y1 + 1) * row + x0];
-                ++corner[(y1 + 1) * row + x1 + 1];
+                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)},
+                                       {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (x1 << 16))},
+                                       {t[2].x, t[2].y, t[2].z, std::int32_t(y0 | (y1 << 16))}};
+                const RowSpan* span = plan.rows.data() + crossable.first_row;
+                for (std::size_t y = y0; y <= y1; ++y, ++span) {
+                    if (span->first > span->last) continue;
+                    ++edges[y * room_row + span->first];
+                    --edges[y * room_row + span->last + 1];
+                }
                 for (std::size_t ty = y0 / kTile; ty <= y1 / kTile; ++ty)
                     for (std::size_t tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
                         *item++ = index;
@@ -312,20 +360,17 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     slot_base.resize(std::size_t(batch_frames) + 1);
                     slot_base[0] = 0;
                     for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot)
-                        slot_base[slot + 1] = slot_base[slot] + std::uint32_t(frame_keys[std::size_t(batch_first) + slot]);
+                        slot_base[slot + 1] = slot_base[slot] + std::uint32_t(frame_keys(std::size_t(batch_first) + slot));
                     parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
-                        const std::int32_t* corner = room_corners.data() + slot * corners;
-                        std::vector<std::uint32_t> row_above(std::size_t(nx), 0u);
+                        const std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
                         std::uint32_t next = slot_base[slot];
                         std::size_t bucket = slot * columns;
                         for (std::size_t y = 0; y < std::size_t(ny); ++y) {
-                            std::int32_t row_sum = 0;
+                            std::int32_t room = 0;
                             for (std::size_t x = 0; x < std::size_t(nx); ++x, ++bucket) {
-                                row_sum += corner[y * std::size_t(nx + 1) + x];
-                                const std::uint32_t room = row_above[x] + std::uint32_t(row_sum);
-                                row_above[x] = room;
+                                room += edges[y * room_row + x];
                                 starts[bucket] = cursors[bucket] = next;
-                                next += room;
+                                next += std::uint32_t(room);
                             }
                         }
                     });
