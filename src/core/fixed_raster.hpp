@@ -105,22 +105,21 @@ public:
 
     // Row first_row + i's columns (first > last: none).
     IndexRange row(int i) const {
+        // x relative to the first column's centre: column c's centre is at c * S, so the first
+        // column at or right of the widened left end is ceil(left / S), the last at or left of the
+        // right end floor(right / S) (>> is a floor division).
         const std::int64_t on_long = long_.at(i), on_short = i < rows_below_ ? lower_.at(i) : upper_.at(i);
-        const std::int64_t left = std::min(on_long, on_short) - kMargin, right = std::max(on_long, on_short) + kMargin;
-        // Column i's centre is i * S + S/2: the first at or right of `left`, the last at or left of
-        // `right` (>> is a floor division).
-        constexpr std::int64_t half = (kSubvoxel / 2) << kFraction;
         constexpr int shift = kFraction + 6;
         static_assert(kSubvoxel == 1 << 6);
-        return {int(-((half - left) >> shift)), int((right - half) >> shift)};
+        return {int(-((kMargin - std::min(on_long, on_short)) >> shift)), int((std::max(on_long, on_short) + kMargin) >> shift)};
     }
 
 private:
     static constexpr int kFraction = 32;
     static constexpr std::int64_t kMargin = std::int64_t(1) << (kFraction - 8);
-    // An edge's x at row first_row + i's centre. Unsigned, so that an edge followed past its own
-    // height (a short edge not in use) wraps instead of overflowing; where it is in use the value
-    // is in range.
+    // An edge's x at row first_row + i's centre, relative to the first column's centre. Unsigned,
+    // so that an edge followed past its own height (a short edge not in use) wraps instead of
+    // overflowing; where it is in use the value is in range.
     struct Edge {
         std::uint64_t x = 0, per_row = 0;
         Edge() = default;
@@ -129,7 +128,7 @@ private:
             // where the vertex term alone is exact).
             const std::int64_t slope =
                 to.y == from.y ? 0 : std::int64_t(double(to.x - from.x) / double(to.y - from.y) * double(std::int64_t(1) << kFraction));
-            x = (std::uint64_t(std::int64_t(from.x)) << kFraction) + std::uint64_t(centre - from.y) * std::uint64_t(slope);
+            x = (std::uint64_t(std::int64_t(from.x) - kSubvoxel / 2) << kFraction) + std::uint64_t(centre - from.y) * std::uint64_t(slope);
             per_row = std::uint64_t(slope) * std::uint64_t(kSubvoxel);
         }
         std::int64_t at(int i) const { return std::int64_t(x + std::uint64_t(i) * per_row); }

@@ -55,7 +55,9 @@ struct FramePlan {
     std::uint64_t items = 0;  // raster work items: the tiles its boxes touch
 };
 
-FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny, int tile) {
+// `Tile`: the raster's tile side (a constant, so that the divisions below are shifts).
+template <int Tile>
+FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
     FramePlan plan;
     // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
     // and a kept one advances the counts (without branches, as below).
@@ -96,7 +98,7 @@ FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny, int tile) {
         crossables += kept ? 1 : 0;
         rows_used += kept ? std::size_t(box_y1 - y0 + 1) : 0;
         plan.keys += keys;
-        plan.items += kept ? std::uint64_t(box_x1 / tile - box_x0 / tile + 1) * std::uint64_t(box_y1 / tile - box_y0 / tile + 1) : 0;
+        plan.items += kept ? std::uint64_t(box_x1 / Tile - box_x0 / Tile + 1) * std::uint64_t(box_y1 / Tile - box_y0 / Tile + 1) : 0;
     }
     plan.crossables.resize(crossables);
     plan.rows.resize(rows_used);
@@ -156,7 +158,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::vector<FramePlan> frame_plans(static_cast<std::size_t>(frames));
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
-        if (frame.closed) frame_plans[f] = plan_frame(frame, nx, ny, kTile);  // else the host's surface rule handles it
+        if (frame.closed) frame_plans[f] = plan_frame<kTile>(frame, nx, ny);  // else the host's surface rule handles it
     });
     // A frame's triangles on the device: its crossable ones.
     auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_plans[f].crossables.size()); };
