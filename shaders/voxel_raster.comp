@@ -37,6 +37,7 @@ layout(push_constant) uniform Params {
 void main() {
     uint item_index = params.work_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.work_count) return;
+    // Read once here: on lavapipe a push-constant read inside the slot loop is a load per lane.
     const int64_t z_begin = int64_t(params.z_begin), slab_layers = int64_t(params.slab_layers);
     const uint nx = uint(params.nx), columns = uint(params.nx * params.ny);
     uint triangle = texelFetch(work_items, int(2u * item_index)).x;
