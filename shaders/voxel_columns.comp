@@ -180,12 +180,21 @@ void write_column(uint column, int first, int last) {
     }
 }
 
-// The next place in list `list`; every workgroup's first place also counts a workgroup of the
-// list's indirect dispatch.
-uint take_place(uint list) {
-    uint index = atomicAdd(lists[list].count, 1u);
-    if (index % gl_WorkGroupSize.x == 0u && index / gl_WorkGroupSize.x < MAX_GROUPS) atomicAdd(lists[list].groups_x, 1u);
-    return index;
+// Lists a column's buckets of frames `frames` in list `list`: it takes their places at once, and the
+// workgroups of the list's indirect dispatch that those places begin (up to MAX_GROUPS) are counted.
+void list_buckets(uint column, uint frames, uint list) {
+    uint count = uint(bitCount(frames));
+    uint index = atomicAdd(lists[list].count, count);
+    uint groups_before = min((index + gl_WorkGroupSize.x - 1u) / gl_WorkGroupSize.x, MAX_GROUPS);
+    uint groups_after = min((index + count + gl_WorkGroupSize.x - 1u) / gl_WorkGroupSize.x, MAX_GROUPS);
+    if (groups_after != groups_before) atomicAdd(lists[list].groups_x, groups_after - groups_before);
+    for (uint pending = frames; pending != 0u; pending &= pending - 1u) {
+        uint bucket = bucket_of(column, uint(findLSB(pending)));
+        if (list == MEDIUM_LIST) medium_buckets[index] = bucket;
+        else if (list == LARGE_LIST) large_buckets[index] = bucket;
+        else huge_buckets[index] = bucket;
+        ++index;
+    }
 }
 
 void flip_small(uint column) {
@@ -193,6 +202,9 @@ void flip_small(uint column) {
     int first = slab_layers, last = -1;
     uint total = 0u;
     uint flip_base = column * uint(slab_layers);
+    // The frames whose buckets the next stages take, listed after the loop: on lavapipe a list's
+    // atomics and store in the loop would cost every frame of every column.
+    uint medium_frames = 0u, large_frames = 0u, huge_frames = 0u;
     // Only the frames with room in this column: most columns see the surface in few of them.
     for (uint pending = with_room; pending != 0u; pending &= pending - 1u) {
         uint s = uint(findLSB(pending));
@@ -200,10 +212,10 @@ void flip_small(uint column) {
         uint n = end_of(bucket_of(column, s)) - start;
         total += n;
         if (n > REGISTER_KEYS) {  // the next stages'
-            uint bucket = bucket_of(column, s);
-            if (n <= MEDIUM_KEYS) medium_buckets[take_place(MEDIUM_LIST)] = bucket;
-            else if (n <= LARGE_KEYS) large_buckets[take_place(LARGE_LIST)] = bucket;
-            else huge_buckets[take_place(HUGE_LIST)] = bucket;
+            uint frame_bit = 1u << s;
+            if (n <= MEDIUM_KEYS) medium_frames |= frame_bit;
+            else if (n <= LARGE_KEYS) large_frames |= frame_bit;
+            else huge_frames |= frame_bit;
             continue;
         }
         uint k0 = key_at(start, 0u, n), k1 = key_at(start, 1u, n), k2 = key_at(start, 2u, n), k3 = key_at(start, 3u, n);
@@ -234,6 +246,9 @@ void flip_small(uint column) {
         // Still inside after the last crossing (the closing ones lie above the slab): to the top.
         if (inside) last = slab_layers - 1;
     }
+    if (medium_frames != 0u) list_buckets(column, medium_frames, MEDIUM_LIST);
+    if (large_frames != 0u) list_buckets(column, large_frames, LARGE_LIST);
+    if (huge_frames != 0u) list_buckets(column, huge_frames, HUGE_LIST);
     if (total > MAX_COLUMN_CROSSINGS) {
         // Skipped: its flips are left for the next batch's clear, and nothing is written.
         atomicMax(most_column_crossings, total);
