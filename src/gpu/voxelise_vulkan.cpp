@@ -270,7 +270,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         }
     } release{b};
     if (!in_place) ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
-    ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Device);
+    // Host-visible: after the first batch the host clears only the columns the batch before flipped.
+    ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Host);
     // One start more than there are buckets: the end of the last one, so every column's room is
     // the difference of two starts.
     ensure_capacity(context_, b.bucket_start, bucket_bytes + 4, Buffer::Memory::Host);
@@ -293,6 +294,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::unique_ptr<Buffer>& triangles = b.triangles;
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
+    // The flips per column ([column][z]) of the slab of the batch before; 0 before the call's first
+    // batch, whose flips may hold anything and are all cleared.
+    std::size_t dirty_column_flips = 0;
 
     // Host side of a batch: its triangles, one work item per (triangle, tile its box touches), and
     // each bucket's stretch of the key list: a bucket (column, frame) gets room for one key per
@@ -416,11 +420,17 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     });
                     starts[std::size_t(batch_frames) * columns] = slot_base[std::size_t(batch_frames)];
                     // Each column's frames with room (bucket rooms are differences of starts), in
-                    // stretches of columns on the host's threads.
+                    // stretches of columns on the host's threads. Before that, after the call's first
+                    // batch, the flips of the batch before are cleared: only the columns where it
+                    // had room have any (a skipped column's too), and their words lie together.
                     std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
+                    std::uint32_t* flips = toggles.mapped<std::uint32_t>().data();
                     constexpr std::size_t kStretches = 16;
                     parallel_for(kStretches, [&](std::size_t stretch) {
                         const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
+                        if (dirty_column_flips != 0)
+                            for (std::size_t column = first; column < last; ++column)
+                                if (frames_with_room[column] != 0) std::fill_n(flips + column * dirty_column_flips, dirty_column_flips, 0u);
                         std::fill(frames_with_room + first, frames_with_room + last, 0u);
                         for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
                             const std::uint32_t* start = starts + slot * columns;
@@ -445,7 +455,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 // The previous batch's last reads of the flips and keys must be done before they
                 // are cleared and rewritten (the host wrote the cursors after the fence).
                 sequence.barrier();
-                sequence.fill(toggles, slab_bytes, 0u);
+                if (dirty_column_flips == 0) sequence.fill(toggles, slab_bytes, 0u);  // the call's first batch
+                dirty_column_flips = std::size_t(slab_layers);
                 sequence.dispatch(raster_, raster_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
