@@ -2,7 +2,9 @@
 // The solid voxeliser on Vulkan compute. Per batch of frames (at most one 32-frame occupancy word):
 //   the host         gives every bucket (voxel column, frame) a stretch of one key list, with room
 //                    for one key per triangle of that frame whose row span (its cross-section
-//                    with the row's centre line, fixed::CrossSections) holds the column;
+//                    with the row's centre line, fixed::CrossSections) holds the column, and
+//                    sends each frame's work items in classes of about equally many covered
+//                    columns, so that a subgroup's lanes take their slots together;
 //   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
 //   voxel_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
 //                    switches between zero and non-zero, and runs an XOR up each column over the
