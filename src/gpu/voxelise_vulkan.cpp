@@ -292,8 +292,11 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         }
     } release{b};
     if (!in_place) ensure_capacity(context_, b.mask, slab_bytes, Buffer::Memory::Host);
-    // Host-visible: after the first batch the host clears only the columns the batch before flipped.
-    ensure_capacity(context_, b.toggles, slab_bytes, Buffer::Memory::Host);
+    // Where the device works in host memory, the flips are host-visible and, after the call's first
+    // batch, the host clears only the columns the batch before flipped (on its threads; lavapipe
+    // clears a buffer on one). Elsewhere they stay in device memory and are cleared by the device.
+    const bool host_clears_flips = device.shares_host_memory();
+    ensure_capacity(context_, b.toggles, slab_bytes, host_clears_flips ? Buffer::Memory::Host : Buffer::Memory::Device);
     // One start more than there are buckets: the end of the last one, so every column's room is
     // the difference of two starts.
     ensure_capacity(context_, b.bucket_start, bucket_bytes + 4, Buffer::Memory::Host);
@@ -316,8 +319,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::unique_ptr<Buffer>& triangles = b.triangles;
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
-    // The flips per column ([column][z]) of the slab of the batch before; 0 before the call's first
-    // batch, whose flips may hold anything and are all cleared.
+    // The flips per column ([column][z]) of the slab of the batch before, which the host clears; 0
+    // before the call's first batch (whose flips may hold anything) and where the device clears them.
     std::size_t dirty_column_flips = 0;
 
     // Host side of a batch: its triangles, one work item per (triangle, tile its box touches), and
@@ -446,7 +449,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     // batch, the flips of the batch before are cleared: only the columns where it
                     // had room have any (a skipped column's too), and their words lie together.
                     std::uint32_t* frames_with_room = column_frames.mapped<std::uint32_t>().data();
-                    std::uint32_t* flips = toggles.mapped<std::uint32_t>().data();
+                    std::uint32_t* flips = host_clears_flips ? toggles.mapped<std::uint32_t>().data() : nullptr;
                     constexpr std::size_t kStretches = 16;
                     parallel_for(kStretches, [&](std::size_t stretch) {
                         const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
@@ -477,8 +480,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 // The previous batch's last reads of the flips and keys must be done before they
                 // are cleared and rewritten (the host wrote the cursors after the fence).
                 sequence.barrier();
-                if (dirty_column_flips == 0) sequence.fill(toggles, slab_bytes, 0u);  // the call's first batch
-                dirty_column_flips = std::size_t(slab_layers);
+                if (dirty_column_flips == 0) sequence.fill(toggles, slab_bytes, 0u);  // see host_clears_flips
+                if (host_clears_flips) dirty_column_flips = std::size_t(slab_layers);
                 sequence.dispatch(raster_, raster_set, raster, items);
                 // Every key and final cursor must be in place before the columns sort them.
                 sequence.barrier();
