@@ -44,8 +44,9 @@ layout(set = 0, binding = 1) uniform usamplerBuffer bucket_start;
 layout(set = 0, binding = 2) uniform usamplerBuffer bucket_end;  // the raster's cursors
 // The most crossings a skipped column had (0: none skipped).
 layout(std430, set = 0, binding = 3) buffer Overflow { uint most_column_crossings; };
-// [column][z]: each column's flips lie together, so its walk below reads them in order. The host
-// clears them before every batch.
+// [column][z]: each column's flips lie together, so its walk below reads them in order. They are
+// clear before every batch: a device fill, or (in host memory) the host clearing the columns the
+// batch before had room in.
 layout(std430, set = 0, binding = 4) buffer Toggles { uint toggles[]; };
 layout(std430, set = 0, binding = 5) buffer Mask { uint mask[]; };  // [z][y][x] of the slab
 layout(set = 0, binding = 6) uniform usamplerBuffer key_texels;     // `keys` again, for reading
