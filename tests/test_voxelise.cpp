@@ -103,6 +103,51 @@ TEST(Voxelise, CrossSectionsHoldEveryCoveredColumnAndLittleMore) {
     EXPECT_LT(double(spanned), 1.05 * double(covered)) << spanned << " spanned, " << covered << " covered";
 }
 
+// The planner takes a small triangle's covered columns from a coverage mask: it must be exactly the
+// columns the exact test covers, also for centres on edges and vertices and for level edges.
+TEST(Voxelise, CoverageMasksAreExactlyTheCoveredColumns) {
+    if (!fixed::coverage_masks_supported()) GTEST_SKIP() << "coverage masks need AVX2";
+    std::mt19937 random(11);
+    const std::int32_t grid_extent = 1 << 17;  // the largest coordinates (2048 voxels of 64 units)
+    std::uniform_int_distribution<std::int32_t> base(0, grid_extent - 64 * 24), offset(0, 64 * 16), narrow(0, 64 * 8), small(0, 64 * 2);
+    std::uniform_int_distribution<int> kind(0, 3);
+    std::size_t masks = 0, covered = 0;
+    for (int trial = 0; trial < 40000; ++trial) {
+        const std::int32_t bx = base(random), by = base(random);
+        const bool tall = trial % 2 == 0;  // boxes up to 2 x 16 or 8 x 2 columns
+        auto along_x = [&] { return tall ? small(random) : narrow(random); };
+        auto along_y = [&] { return tall ? offset(random) : small(random); };
+        fixed::Triangle t{};
+        for (auto& v : t) {
+            switch (kind(random)) {
+                case 0: v = {bx + along_x(), by + along_y(), 0}; break;                                      // anywhere
+                case 1: v = {bx + along_x() / 64 * 64 + 32, by + along_y() / 64 * 64 + 32, 0}; break;        // on a centre
+                case 2: v = {bx + along_x(), by + along_y() / 64 * 64 + 32, 0}; break;                       // on a row's centre line
+                default: v = {bx + along_x() / 64 * 64 + 32, by + along_y(), 0}; break;                      // on a column's centre line
+            }
+        }
+        if (trial % 5 == 0) t[1].y = t[0].y;  // a level edge
+        if (trial % 7 == 0) t[1].x = t[0].x;  // a vertical one
+        fixed::Oriented oriented;
+        if (!fixed::orient(t, oriented)) continue;
+        const int x0 = oriented.columns_x.first, x1 = oriented.columns_x.last, y0 = oriented.columns_y.first, y1 = oriented.columns_y.last;
+        if (x0 > x1 || y0 > y1 || !fixed::fits_coverage_mask(x1 - x0 + 1, y1 - y0 + 1)) continue;
+        ++masks;
+        const std::uint32_t mask =
+            fixed::coverage_mask(oriented.a.xy(), oriented.b.xy(), oriented.c.xy(), x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+        const int stride = fixed::mask_stride_log2(x1 - x0 + 1);
+        for (int bit = 0; bit < 32; ++bit) {
+            const int x = x0 + (bit & ((1 << stride) - 1)), y = y0 + (bit >> stride);
+            std::int64_t layer = 0;
+            const bool crosses = x <= x1 && y <= y1 && fixed::column_crossing(oriented, x, y, layer);
+            covered += crosses ? 1 : 0;
+            ASSERT_EQ(crosses, ((mask >> bit) & 1u) != 0) << "trial " << trial << ": column (" << x << ", " << y << ")";
+        }
+    }
+    EXPECT_GT(masks, 25000u);
+    EXPECT_GT(covered, 50000u);
+}
+
 TEST(Voxelise, SphereMatchesReferenceAndVolume) {
     const double r = 0.3, h = 0.01;
     auto mesh = shapes::sphere({0.1, -0.2, 1.0}, r, 48, 64);
@@ -164,9 +209,14 @@ TEST(Voxelise, RandomClosedMeshesMatchReference) {
         }
         frames.push_back(frame);
     }
-    auto both = voxelise_both(prepare_voxelisation(sequence_of(frames), 0.007));
+    const auto input = prepare_voxelisation(sequence_of(frames), 0.007);
+    auto both = voxelise_both(input);
     expect_identical(both);
     EXPECT_GT(occupied(both.gpu), 10000u);
+    // The planner without coverage masks (hosts without AVX2): cross-sections for every triangle.
+    gpu::VulkanVoxeliser spans_only(test::context(), {.coverage_masks = false});
+    expect_identical({both.reference, voxelise(input, spans_only), {}});
+    test::expect_no_validation_messages();
 }
 
 // Where the device works in host memory (lavapipe), the mask is written straight into the aMHV; the

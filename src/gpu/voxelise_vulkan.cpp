@@ -39,17 +39,21 @@ struct RowSpan {
 };
 static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 
-// A triangle of a closed frame that may cover a column centre: its rows' spans of columns (each row's
-// cross-section, fixed::CrossSections) and their box. A bucket's room is the spans that hold its
-// column (0.1% more than the columns covered at 10 mm), and the raster tests the box (2.3 times the
-// columns covered, against 3.9 times for the bounding boxes). Found once per call, while planning;
-// the batches' gathering reads them back.
+// A triangle of a closed frame that covers a column centre, with the columns it may cover and their
+// box: a small one's covered columns exactly (fixed::coverage_mask, 86% of them at 10 mm), a larger
+// one's rows' spans of columns (each row's cross-section, fixed::CrossSections, which may hold a
+// column more where a centre lies on an edge). A bucket's room is the columns that hold its column,
+// and the raster tests the box, or takes the mask's columns as they are. Found once per call, while
+// planning; the batches' gathering reads them back.
 struct Crossable {
-    std::uint32_t triangle;   // index in the frame
-    std::uint32_t first_row;  // the span of row y0 in the frame's list; rows y0..y1 follow
+    std::uint32_t triangle;  // index in the frame
+    // With kMaskFlag: the coverage mask from the box's corner (bits 0-15) and its row stride's log2
+    // (bits 16-17). Else the index of row y0's span in the frame's list; rows y0..y1 follow.
+    std::uint32_t coverage;
     std::uint16_t x0, x1, y0, y1;
-    std::uint32_t covered;  // the columns its spans hold
+    std::uint32_t covered;  // the columns its mask or spans hold
 };
+constexpr std::uint32_t kMaskFlag = 0x80000000u;
 
 // The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
 // go out in classes of about equally many covered columns (up to kItemClasses - 1): a triangle in
@@ -106,9 +110,29 @@ struct FramePlan {
     std::array<std::uint32_t, kItemClasses> class_items{};  // work items per class
 };
 
-// `Tile`: the raster's tile side (a constant, so that the divisions below are shifts).
-template <int Tile>
-FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
+// The coverage mask's row r (bits from the box's first column), for a mask of row stride 2^stride.
+inline std::uint32_t mask_row(std::uint32_t mask, int stride, int r) { return (mask >> (r << stride)) & ((1u << (1 << stride)) - 1u); }
+
+// Calls visit(y, first, last) for each row of a crossable that holds columns.
+template <class Visit>
+void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedAllocator<RowSpan>>& rows, Visit&& visit) {
+    if (c.coverage & kMaskFlag) {
+        const int stride = int(c.coverage >> 16) & 3;
+        for (int y = c.y0; y <= c.y1; ++y) {
+            const std::uint32_t bits = mask_row(c.coverage, stride, y - c.y0);
+            if (bits != 0) visit(y, c.x0 + __builtin_ctz(bits), c.x0 + 31 - __builtin_clz(bits));
+        }
+        return;
+    }
+    const RowSpan* span = rows.data() + c.coverage;
+    for (int y = c.y0; y <= c.y1; ++y, ++span)
+        if (span->first <= span->last) visit(y, int(span->first), int(span->last));
+}
+
+// `Tile`: the raster's tile side (a constant, so that the divisions below are shifts). `Masks`: small
+// triangles get coverage masks (only in plan_frame_with_masks, which is built for AVX2).
+template <int Tile, bool Masks>
+[[gnu::always_inline]] inline FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
     FramePlan plan;
     // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
     // and a kept one advances the counts (without branches, as below).
@@ -117,12 +141,37 @@ FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
     std::size_t crossables = 0, rows_used = 0;
     for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
         const fixed::Triangle& t = frame.triangles[i];
-        fixed::Oriented oriented;
-        if (!fixed::orient(t, oriented)) continue;
-        const int x0 = std::max(oriented.columns_x.first, 0), x1 = std::min(oriented.columns_x.last, nx - 1);
-        const int y0 = std::max(oriented.columns_y.first, 0), y1 = std::min(oriented.columns_y.last, ny - 1);
-        if (x0 > x1 || y0 > y1) continue;  // no column centre in its bounding box
-        const int height = y1 - y0 + 1;
+        // Counter-clockwise seen from above, chosen without a branch: which way a triangle faces is
+        // as good as random.
+        const fixed::Point2 a = t[0].xy(), b_given = t[1].xy(), c_given = t[2].xy();
+        const std::int64_t area = fixed::edge_function(a, b_given, c_given);
+        const fixed::Point2 b = area < 0 ? c_given : b_given, c = area < 0 ? b_given : c_given;
+        const fixed::IndexRange columns_x = fixed::centre_range(std::min({a.x, b.x, c.x}), std::max({a.x, b.x, c.x}));
+        const fixed::IndexRange columns_y = fixed::centre_range(std::min({a.y, b.y, c.y}), std::max({a.y, b.y, c.y}));
+        const int x0 = std::max(columns_x.first, 0), x1 = std::min(columns_x.last, nx - 1);
+        const int y0 = std::max(columns_y.first, 0), y1 = std::min(columns_y.last, ny - 1);
+        // Seen edge-on from above, or no column centre in its bounding box.
+        if ((area == 0) | (x0 > x1) | (y0 > y1)) continue;
+        const int width = x1 - x0 + 1, height = y1 - y0 + 1;
+        if (Masks && fixed::fits_coverage_mask(width, height)) {
+            const std::uint32_t mask = fixed::coverage_mask(a, b, c, x0, y0, width, height);
+            const int stride = fixed::mask_stride_log2(width);
+            // The box of the covered columns: rows from the lowest and highest bits, columns from the
+            // rows folded onto each other. The mask is then taken from the box's corner.
+            std::uint32_t columns = mask;
+            for (int shift = fixed::kMaskLanes / 2; shift >= 1; shift >>= 1) columns |= (1 << stride) <= shift ? columns >> shift : 0u;
+            columns &= (1u << (1 << stride)) - 1u;
+            const int first_column = __builtin_ctz(columns | 0x10000u), first_row = __builtin_ctz(mask | 0x10000u) >> stride;
+            const std::uint32_t keys = std::uint32_t(__builtin_popcount(mask));
+            plan.crossables[crossables] = {std::uint32_t(i),
+                                           kMaskFlag | (std::uint32_t(stride) << 16) | std::uint32_t(std::uint64_t(mask) >> ((first_row << stride) + first_column)),
+                                           std::uint16_t(x0 + first_column), std::uint16_t(x0 + 31 - __builtin_clz(columns | 1u)),
+                                           std::uint16_t(y0 + first_row), std::uint16_t(y0 + ((31 - __builtin_clz(mask | 1u)) >> stride)),
+                                           keys};
+            plan.keys += keys;
+            crossables += keys != 0 ? 1 : 0;
+            continue;
+        }
         if (rows_used + std::size_t(height) > plan.rows.size())
             plan.rows.resize(std::max(plan.rows.size() * 2, rows_used + std::size_t(height)));
         RowSpan* rows = plan.rows.data() + rows_used;
@@ -157,6 +206,13 @@ FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
         for_each_item<Tile>(crossable, [&](int, int, std::uint32_t item_class) { ++plan.class_items[item_class]; });
     for (const std::uint32_t items : plan.class_items) plan.items += items;
     return plan;
+}
+
+AMHV_TARGET_AVX2 FramePlan plan_frame_with_masks(const PreparedFrame& frame, int nx, int ny) {
+    return plan_frame<VulkanVoxeliser::kTile, true>(frame, nx, ny);
+}
+FramePlan plan_frame_with_spans(const PreparedFrame& frame, int nx, int ny) {
+    return plan_frame<VulkanVoxeliser::kTile, false>(frame, nx, ny);
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
@@ -208,11 +264,13 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::uint64_t key_limit = budget / 4 - kKeyPadding;
     // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
     // also fit one buffer each.
-    const std::uint64_t triangle_limit = budget / 48, item_limit = budget / 8;
+    const std::uint64_t triangle_limit = budget / sizeof(GpuTriangle), item_limit = budget / 8;
     std::vector<FramePlan> frame_plans(static_cast<std::size_t>(frames));
+    const bool masks = options_.coverage_masks && fixed::coverage_masks_supported();
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
-        if (frame.closed) frame_plans[f] = plan_frame<kTile>(frame, nx, ny);  // else the host's surface rule handles it
+        if (!frame.closed) return;  // the host's surface rule handles it
+        frame_plans[f] = masks ? plan_frame_with_masks(frame, nx, ny) : plan_frame_with_spans(frame, nx, ny);
     });
     // A frame's triangles on the device: its crossable ones.
     auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_plans[f].crossables.size()); };
@@ -371,12 +429,10 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)},
                                        {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (x1 << 16))},
                                        {t[2].x, t[2].y, t[2].z, std::int32_t(y0 | (y1 << 16))}};
-                const RowSpan* span = plan.rows.data() + crossable.first_row;
-                for (std::size_t y = y0; y <= y1; ++y, ++span) {
-                    if (span->first > span->last) continue;
-                    ++edges[y * room_row + span->first];
-                    --edges[y * room_row + span->last + 1];
-                }
+                for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
+                    ++edges[std::size_t(y) * room_row + std::size_t(first)];
+                    --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
+                });
                 for_each_item<kTile>(crossable, [&](int tile_x, int tile_y, std::uint32_t item_class) {
                     std::uint32_t*& item = class_item[item_class];
                     *item++ = index;

@@ -1,9 +1,10 @@
 #pragma once
 // The solid voxeliser on Vulkan compute. Per batch of frames (at most one 32-frame occupancy word):
 //   the host         gives every bucket (voxel column, frame) a stretch of one key list, with room
-//                    for one key per triangle of that frame whose row span (its cross-section
-//                    with the row's centre line, fixed::CrossSections) holds the column, and
-//                    sends each frame's work items in classes of about equally many covered
+//                    for one key per triangle of that frame that may cover the column (a small
+//                    triangle's covered columns exactly, fixed::coverage_mask; a larger one's row
+//                    spans, its cross-sections with the rows' centre lines, fixed::CrossSections),
+//                    and sends each frame's work items in classes of about equally many covered
 //                    columns, so that a subgroup's lanes take their slots together;
 //   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
 //   voxel_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
@@ -34,6 +35,9 @@ struct VoxeliserOptions {
     // Write the mask straight into the aMHV's memory where the device works in host memory and
     // can import it (VK_EXT_external_memory_host); false: a scratch mask copied in. Tests use both.
     bool write_in_place = true;
+    // Plan small triangles' columns as exact coverage masks (fixed::coverage_mask) where the host
+    // has AVX2; false: cross-sections for every triangle, as on hosts without it. Tests use both.
+    bool coverage_masks = true;
 };
 
 class VulkanVoxeliser final : public Voxeliser {
