@@ -109,14 +109,16 @@ TEST(Voxelise, CoverageMasksAreExactlyTheCoveredColumns) {
     if (!fixed::coverage_masks_supported()) GTEST_SKIP() << "coverage masks need AVX2";
     std::mt19937 random(11);
     const std::int32_t grid_extent = 1 << 17;  // the largest coordinates (2048 voxels of 64 units)
-    std::uniform_int_distribution<std::int32_t> base(0, grid_extent - 64 * 24), offset(0, 64 * 16), narrow(0, 64 * 8), small(0, 64 * 2);
+    std::uniform_int_distribution<std::int32_t> base(0, grid_extent - 64 * 40);
+    // Boxes up to 2 x 31, 4 x 8 and 8 x 4 columns: every row stride, up to all 32 lanes.
+    const std::int32_t extents[3][2] = {{64 * 1, 64 * 30}, {64 * 3, 64 * 7}, {64 * 7, 64 * 3}};
     std::uniform_int_distribution<int> kind(0, 3);
-    std::size_t masks = 0, covered = 0;
-    for (int trial = 0; trial < 40000; ++trial) {
+    std::size_t masks = 0, beyond_16_lanes = 0, covered = 0;
+    for (int trial = 0; trial < 60000; ++trial) {
         const std::int32_t bx = base(random), by = base(random);
-        const bool tall = trial % 2 == 0;  // boxes up to 2 x 16 or 8 x 2 columns
-        auto along_x = [&] { return tall ? small(random) : narrow(random); };
-        auto along_y = [&] { return tall ? offset(random) : small(random); };
+        const std::int32_t* extent = extents[trial % 3];
+        auto along_x = [&] { return std::uniform_int_distribution<std::int32_t>(0, extent[0])(random); };
+        auto along_y = [&] { return std::uniform_int_distribution<std::int32_t>(0, extent[1])(random); };
         fixed::Triangle t{};
         for (auto& v : t) {
             switch (kind(random)) {
@@ -133,6 +135,7 @@ TEST(Voxelise, CoverageMasksAreExactlyTheCoveredColumns) {
         const int x0 = oriented.columns_x.first, x1 = oriented.columns_x.last, y0 = oriented.columns_y.first, y1 = oriented.columns_y.last;
         if (x0 > x1 || y0 > y1 || !fixed::fits_coverage_mask(x1 - x0 + 1, y1 - y0 + 1)) continue;
         ++masks;
+        beyond_16_lanes += ((y1 - y0 + 1) << fixed::mask_stride_log2(x1 - x0 + 1)) > 16 ? 1 : 0;
         const std::uint32_t mask =
             fixed::coverage_mask(oriented.a.xy(), oriented.b.xy(), oriented.c.xy(), x0, y0, x1 - x0 + 1, y1 - y0 + 1);
         const int stride = fixed::mask_stride_log2(x1 - x0 + 1);
@@ -145,7 +148,8 @@ TEST(Voxelise, CoverageMasksAreExactlyTheCoveredColumns) {
         }
     }
     EXPECT_GT(masks, 25000u);
-    EXPECT_GT(covered, 50000u);
+    EXPECT_GT(beyond_16_lanes, 2500u);
+    EXPECT_GT(covered, 50000u) << masks << " masks, " << beyond_16_lanes << " beyond 16 lanes";
 }
 
 TEST(Voxelise, SphereMatchesReferenceAndVolume) {

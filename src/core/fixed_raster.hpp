@@ -137,16 +137,16 @@ private:
     std::int64_t rows_below_ = 0;
 };
 
-// The columns a small triangle covers, exactly (column_crossing's test), found on 16 lanes at once
+// The columns a small triangle covers, exactly (column_crossing's test), found 8 lanes at a time
 // for the Vulkan path's planner: bit r << stride_log2 | c is column (x0 + c, y0 + r) of its box,
 // whose width rounded up to a power of two is the row stride. For boxes at most kMaskColumns wide
-// whose rows fill at most kMaskLanes lanes (86% of the triangles of a capsule body at 10 mm).
+// whose rows fill at most kMaskLanes lanes (93% of the triangles of a capsule body at 10 mm).
 // Each edge value is clamped to +-2^30 at the box's corner and the steps to any lane add up to less
-// than 2^28 (15 rows and 7 columns of steps below 2^23), so a 32-bit lane keeps the exact value's
+// than 2^29 (31 rows and 7 columns of steps below 2^23), so a 32-bit lane keeps the exact value's
 // sign, with the top-left rule folded in as in the raster: covered when all three are >= 0.
 // It needs AVX2 (target attribute, so the rest of the build stays portable): coverage_masks_supported
 // says whether this machine has it; without it the planner finds cross-sections for every triangle.
-inline constexpr int kMaskColumns = 8, kMaskLanes = 16;
+inline constexpr int kMaskColumns = 8, kMaskLanes = 32;
 
 // log2 of the row stride of a box `width` columns wide: its width rounded up to a power of two.
 inline int mask_stride_log2(int width) { return 31 - __builtin_clz((unsigned(width - 1) << 1) | 1u); }
@@ -164,16 +164,16 @@ inline bool coverage_masks_supported() { return false; }
 
 namespace detail {
 using Lanes8 = std::int32_t __attribute__((vector_size(32)));
-// Per row stride (log2): each lane's row (lanes 0-7, 8-15), then its column (lanes 0-7, 8-15).
+// Per row stride (log2) and group of 8 lanes: each lane's row, then its column.
 struct MaskLanes {
-    alignas(32) Lanes8 lanes[4][4];
+    alignas(32) Lanes8 lanes[4][kMaskLanes / 8][2];
 };
 inline const MaskLanes kMaskLanesTable = [] {
     MaskLanes table{};
     for (int stride = 0; stride < 4; ++stride)
         for (int lane = 0; lane < kMaskLanes; ++lane) {
-            table.lanes[stride][lane / 8][lane % 8] = lane >> stride;
-            table.lanes[stride][2 + lane / 8][lane % 8] = lane & ((1 << stride) - 1);
+            table.lanes[stride][lane / 8][0][lane % 8] = lane >> stride;
+            table.lanes[stride][lane / 8][1][lane % 8] = lane & ((1 << stride) - 1);
         }
     return table;
 }();
@@ -206,17 +206,17 @@ AMHV_TARGET_AVX2 inline std::uint32_t coverage_mask(Point2 a, Point2 b, Point2 c
     const std::int32_t S = std::int32_t(kSubvoxel);
     const std::int32_t row_a = (c.x - b.x) * S, row_b = (a.x - c.x) * S, row_c = (b.x - a.x) * S;
     const std::int32_t column_a = (b.y - c.y) * S, column_b = (c.y - a.y) * S, column_c = (a.y - b.y) * S;
-    const detail::Lanes8* lanes = detail::kMaskLanesTable.lanes[stride];
+    const int lanes = height << stride;
     std::uint32_t outside = 0;
-    for (int half = 0; half < 2; ++half) {
-        const detail::Lanes8 row = lanes[half], column = lanes[2 + half];
+    for (int group = 0; group < (lanes + 7) / 8; ++group) {
+        const detail::Lanes8 row = detail::kMaskLanesTable.lanes[stride][group][0], column = detail::kMaskLanesTable.lanes[stride][group][1];
         const detail::Lanes8 value = (row * row_a + column * column_a + wa) | (row * row_b + column * column_b + wb) |
                                      (row * row_c + column * column_c + wc);
-        outside |= detail::negative_lanes(value) << (8 * half);
+        outside |= detail::negative_lanes(value) << (8 * group);
     }
     // Only the lanes of the box's rows and columns.
-    const std::uint32_t rows = (1u << (height << stride)) - 1u;
-    const std::uint32_t row_starts = stride == 0 ? 0xffffu : stride == 1 ? 0x5555u : stride == 2 ? 0x1111u : 0x0101u;
+    const std::uint32_t rows = std::uint32_t((std::uint64_t(1) << lanes) - 1u);
+    const std::uint32_t row_starts = stride == 0 ? 0xffffffffu : stride == 1 ? 0x55555555u : stride == 2 ? 0x11111111u : 0x01010101u;
     return ~outside & rows & (row_starts * ((1u << width) - 1u));
 }
 

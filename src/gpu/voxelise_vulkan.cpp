@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstring>
 #include <memory>
 #include <type_traits>
@@ -47,13 +48,14 @@ static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 // planning; the batches' gathering reads them back.
 struct Crossable {
     std::uint32_t triangle;  // index in the frame
-    // With kMaskFlag: the coverage mask from the box's corner (bits 0-15) and its row stride's log2
-    // (bits 16-17). Else the index of row y0's span in the frame's list; rows y0..y1 follow.
+    // With a mask stride: the coverage mask from the box's corner. Else the index of row y0's span
+    // in the frame's list; rows y0..y1 follow.
     std::uint32_t coverage;
     std::uint16_t x0, x1, y0, y1;
-    std::uint32_t covered;  // the columns its mask or spans hold
+    std::uint32_t covered;     // the columns its mask or spans hold
+    std::uint8_t mask_stride;  // log2 of the mask's row stride, or kSpans
 };
-constexpr std::uint32_t kMaskFlag = 0x80000000u;
+constexpr std::uint8_t kSpans = 0xff;
 
 // The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
 // go out in classes of about equally many covered columns (up to kItemClasses - 1): a triangle in
@@ -116,8 +118,8 @@ inline std::uint32_t mask_row(std::uint32_t mask, int stride, int r) { return (m
 // Calls visit(y, first, last) for each row of a crossable that holds columns.
 template <class Visit>
 void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedAllocator<RowSpan>>& rows, Visit&& visit) {
-    if (c.coverage & kMaskFlag) {
-        const int stride = int(c.coverage >> 16) & 3;
+    if (c.mask_stride != kSpans) {
+        const int stride = c.mask_stride;
         for (int y = c.y0; y <= c.y1; ++y) {
             const std::uint32_t bits = mask_row(c.coverage, stride, y - c.y0);
             if (bits != 0) visit(y, c.x0 + __builtin_ctz(bits), c.x0 + 31 - __builtin_clz(bits));
@@ -161,13 +163,16 @@ template <int Tile, bool Masks>
             std::uint32_t columns = mask;
             for (int shift = fixed::kMaskLanes / 2; shift >= 1; shift >>= 1) columns |= (1 << stride) <= shift ? columns >> shift : 0u;
             columns &= (1u << (1 << stride)) - 1u;
-            const int first_column = __builtin_ctz(columns | 0x10000u), first_row = __builtin_ctz(mask | 0x10000u) >> stride;
+            const int first_column = __builtin_ctz(columns | 0x100u), first_row = std::countr_zero(std::uint64_t(mask) | (std::uint64_t(1) << 32)) >> stride;
             const std::uint32_t keys = std::uint32_t(__builtin_popcount(mask));
             plan.crossables[crossables] = {std::uint32_t(i),
-                                           kMaskFlag | (std::uint32_t(stride) << 16) | std::uint32_t(std::uint64_t(mask) >> ((first_row << stride) + first_column)),
-                                           std::uint16_t(x0 + first_column), std::uint16_t(x0 + 31 - __builtin_clz(columns | 1u)),
-                                           std::uint16_t(y0 + first_row), std::uint16_t(y0 + ((31 - __builtin_clz(mask | 1u)) >> stride)),
-                                           keys};
+                                           std::uint32_t(std::uint64_t(mask) >> ((first_row << stride) + first_column)),
+                                           std::uint16_t(x0 + first_column),
+                                           std::uint16_t(x0 + 31 - __builtin_clz(columns | 1u)),
+                                           std::uint16_t(y0 + first_row),
+                                           std::uint16_t(y0 + ((31 - __builtin_clz(mask | 1u)) >> stride)),
+                                           keys,
+                                           std::uint8_t(stride)};
             plan.keys += keys;
             crossables += keys != 0 ? 1 : 0;
             continue;
@@ -195,7 +200,7 @@ template <int Tile, bool Masks>
         const bool kept = keys != 0;
         plan.crossables[crossables] = {std::uint32_t(i), std::uint32_t(rows_used + std::size_t(std::max(box_y0 - y0, 0))),
                                        std::uint16_t(box_x0), std::uint16_t(box_x1), std::uint16_t(box_y0), std::uint16_t(box_y1),
-                                       std::uint32_t(keys)};
+                                       std::uint32_t(keys), kSpans};
         plan.keys += keys;
         crossables += kept ? 1 : 0;
         rows_used += kept ? std::size_t(box_y1 - y0 + 1) : 0;
