@@ -1,5 +1,6 @@
 // A sphere moving in a straight line: swept volume and per-voxel timing against closed forms, plus
 // real body frames from the CMU capture: GPU and CPU reference bit for bit.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -63,6 +64,25 @@ TEST(AmhvAnalytic, MovingSphereSweptVolumeAndTiming) {
         ++checked;
     }
     EXPECT_GT(checked, 40);
+}
+
+// A volume freed and the next one of about its size: the memory is kept and handed on, and the new
+// volume must still start empty (cleared on all cores instead of by calloc).
+TEST(AmhvAnalytic, RecycledVolumesStartEmpty) {
+    VoxelGrid grid;
+    grid.dims = {100, 120, 130};  // 1.56 M voxels, two words: 12.5 MB
+    const std::uint32_t* first_mask = nullptr;
+    {
+        Amhv volume(grid, 40);
+        for (std::size_t voxel = 0; voxel < volume.voxel_count(); voxel += 7) volume.set(voxel, int(voxel % 40));
+        first_mask = volume.mask().data();
+    }
+    Amhv next(grid, 40);
+    EXPECT_EQ(next.mask().data(), first_mask) << "the freed volume's memory was not handed on";
+    EXPECT_TRUE(std::all_of(next.mask().begin(), next.mask().end(), [](std::uint32_t word) { return word == 0; }));
+    release_recycled_volume();
+    Amhv after_release(grid, 40);
+    EXPECT_TRUE(std::all_of(after_release.mask().begin(), after_release.mask().end(), [](std::uint32_t word) { return word == 0; }));
 }
 
 TEST(AmhvAnalytic, LabelsFollowTheSurfaces) {

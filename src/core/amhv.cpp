@@ -1,8 +1,78 @@
 #include "core/amhv.hpp"
 
+#include <cstring>
+#include <mutex>
+
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 
 namespace amhv {
+
+namespace {
+
+struct Recycled {
+    std::mutex mutex;
+    void* block = nullptr;
+    std::size_t bytes = 0;
+};
+// Never destroyed: volumes freed during static destruction still find it.
+Recycled& recycled() {
+    static Recycled* instance = new Recycled;
+    return *instance;
+}
+
+constexpr std::size_t kRecycledMinBytes = std::size_t(1) << 20;
+
+}  // namespace
+
+namespace detail {
+
+void* allocate_zeroed(std::size_t bytes) {
+    if (bytes >= kRecycledMinBytes && bytes <= kRecycledBytes) {
+        Recycled& kept = recycled();
+        void* block = nullptr;
+        {
+            std::lock_guard lock(kept.mutex);
+            // Not a block much larger than asked for: it would stay in use, unfreed, for less.
+            if (kept.block && kept.bytes >= bytes && kept.bytes / 2 <= bytes) {
+                block = std::exchange(kept.block, nullptr);
+                kept.bytes = 0;
+            }
+        }
+        if (block) {
+            constexpr std::size_t kChunk = std::size_t(1) << 20;
+            parallel_for((bytes + kChunk - 1) / kChunk, [&](std::size_t chunk) {
+                const std::size_t first = chunk * kChunk;
+                std::memset(static_cast<char*>(block) + first, 0, std::min(kChunk, bytes - first));
+            });
+            return block;
+        }
+    }
+    return std::calloc(bytes, 1);
+}
+
+void free_zeroed(void* block, std::size_t bytes) {
+    if (block && bytes >= kRecycledMinBytes && bytes <= kRecycledBytes) {
+        Recycled& kept = recycled();
+        std::lock_guard lock(kept.mutex);
+        std::swap(block, kept.block);
+        kept.bytes = bytes;
+    }
+    std::free(block);  // the one kept before, or one not kept
+}
+
+}  // namespace detail
+
+void release_recycled_volume() {
+    Recycled& kept = recycled();
+    void* block = nullptr;
+    {
+        std::lock_guard lock(kept.mutex);
+        block = std::exchange(kept.block, nullptr);
+        kept.bytes = 0;
+    }
+    std::free(block);
+}
 
 Amhv::Amhv(VoxelGrid grid, int frames) : grid_(grid), frames_(frames), words_((frames + 31) / 32) {
     if (frames <= 0) throw Error(fmt::format("an aMHV needs at least one frame, got {}", frames));

@@ -132,10 +132,12 @@ void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedA
 }
 
 // `Tile`: the raster's tile side (a constant, so that the divisions below are shifts). `Masks`: small
-// triangles get coverage masks (only in plan_frame_with_masks, which is built for AVX2).
+// triangles get coverage masks (only in plan_frame_with_masks, which is built for AVX2). The plan's
+// lists keep their capacity from an earlier call.
 template <int Tile, bool Masks>
-[[gnu::always_inline]] inline FramePlan plan_frame(const PreparedFrame& frame, int nx, int ny) {
-    FramePlan plan;
+[[gnu::always_inline]] inline void plan_frame(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
+    plan.keys = plan.items = 0;
+    plan.class_items = {};
     // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
     // and a kept one advances the counts (without branches, as below).
     plan.crossables.resize(frame.triangles.size());
@@ -210,14 +212,13 @@ template <int Tile, bool Masks>
     for (const Crossable& crossable : plan.crossables)
         for_each_item<Tile>(crossable, [&](int, int, std::uint32_t item_class) { ++plan.class_items[item_class]; });
     for (const std::uint32_t items : plan.class_items) plan.items += items;
-    return plan;
 }
 
-AMHV_TARGET_AVX2 FramePlan plan_frame_with_masks(const PreparedFrame& frame, int nx, int ny) {
-    return plan_frame<VulkanVoxeliser::kTile, true>(frame, nx, ny);
+AMHV_TARGET_AVX2 void plan_frame_with_masks(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
+    plan_frame<VulkanVoxeliser::kTile, true>(frame, nx, ny, plan);
 }
-FramePlan plan_frame_with_spans(const PreparedFrame& frame, int nx, int ny) {
-    return plan_frame<VulkanVoxeliser::kTile, false>(frame, nx, ny);
+void plan_frame_with_spans(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
+    plan_frame<VulkanVoxeliser::kTile, false>(frame, nx, ny, plan);
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
@@ -231,6 +232,19 @@ std::vector<Binding> column_bindings() {
 
 }  // namespace
 
+struct VulkanVoxeliser::HostScratch {
+    std::vector<FramePlan> frame_plans;
+    std::vector<std::int32_t> room_edges;
+    std::uint64_t bytes() const {
+        std::uint64_t total = room_edges.capacity() * sizeof(std::int32_t);
+        for (const FramePlan& plan : frame_plans)
+            total += plan.crossables.capacity() * sizeof(Crossable) + plan.rows.capacity() * sizeof(RowSpan);
+        return total;
+    }
+};
+
+VulkanVoxeliser::~VulkanVoxeliser() = default;
+
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
@@ -240,7 +254,8 @@ VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
       flip_medium_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 4u}),
       flip_large_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 1u}),
       flip_huge_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 2u}),
-      write_columns_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 3u}) {}
+      write_columns_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 3u}),
+      host_(std::make_unique<HostScratch>()) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }
 
@@ -270,12 +285,30 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
     // also fit one buffer each.
     const std::uint64_t triangle_limit = budget / sizeof(GpuTriangle), item_limit = budget / 8;
-    std::vector<FramePlan> frame_plans(static_cast<std::size_t>(frames));
+    // After the call, lists beyond kKeptBytes go back.
+    struct ReleaseHost {
+        HostScratch& host;
+        ~ReleaseHost() {
+            if (host.bytes() > kKeptBytes) host = {};
+        }
+    } release_host{*host_};
+    std::vector<FramePlan>& frame_plans = host_->frame_plans;
+    frame_plans.resize(static_cast<std::size_t>(frames));
     const bool masks = options_.coverage_masks && fixed::coverage_masks_supported();
     parallel_for(std::size_t(frames), [&](std::size_t f) {
         const PreparedFrame& frame = input.frames[f];
-        if (!frame.closed) return;  // the host's surface rule handles it
-        frame_plans[f] = masks ? plan_frame_with_masks(frame, nx, ny) : plan_frame_with_spans(frame, nx, ny);
+        FramePlan& plan = frame_plans[f];
+        if (!frame.closed) {  // the host's surface rule handles it
+            plan.crossables.clear();
+            plan.rows.clear();
+            plan.keys = plan.items = 0;
+            plan.class_items = {};
+            return;
+        }
+        if (masks)
+            plan_frame_with_masks(frame, nx, ny, plan);
+        else
+            plan_frame_with_spans(frame, nx, ny, plan);
     });
     // A frame's triangles on the device: its crossable ones.
     auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_plans[f].crossables.size()); };
@@ -393,7 +426,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // Each frame's rooms are first a difference array along the rows, (nx + 1) x ny: a row span
     // adds one with two updates, and the starts loop sums them up.
     const std::size_t room_row = std::size_t(nx + 1), room_edges_per_frame = room_row * std::size_t(ny);
-    std::vector<std::int32_t> room_edges;
+    std::vector<std::int32_t>& room_edges = host_->room_edges;
     std::vector<std::uint32_t> slot_base;
     // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
     // buffers, frame by frame on the host's threads: the planning counts give every frame its place.

@@ -43,6 +43,7 @@ struct VoxeliserOptions {
 class VulkanVoxeliser final : public Voxeliser {
 public:
     explicit VulkanVoxeliser(Context& context, VoxeliserOptions options = {});
+    ~VulkanVoxeliser() override;
     std::string name() const override;
     void voxelise_solid(const VoxelisationInput& input, Amhv& out) override;
 
@@ -88,6 +89,10 @@ private:
         }
     };
     Buffers buffers_;
+    // The host's lists (each frame's plan, the bucket rooms), kept between calls like the buffers:
+    // freeing them let glibc hand their pages back and fault them in again on the next call.
+    struct HostScratch;
+    std::unique_ptr<HostScratch> host_;
 };
 
 }  // namespace amhv::gpu
