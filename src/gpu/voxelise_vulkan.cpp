@@ -226,7 +226,7 @@ void plan_frame_with_spans(const PreparedFrame& frame, int nx, int ny, FramePlan
 // larger buckets, medium buckets.
 std::vector<Binding> column_bindings() {
     return {Binding::Storage, Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage,
-            Binding::Texels32, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage,
+            Binding::Texels128, Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage,
             Binding::Storage};
 }
 
