@@ -46,5 +46,23 @@ TEST(ParallelFor, AnExceptionReachesTheCaller) {
     }
 }
 
+// The helper threads serve one loop at a time: a loop inside a loop, and loops started from several
+// threads at once, run on threads of their own, every item once.
+TEST(ParallelFor, NestedAndConcurrentLoopsRunEveryItemOnce) {
+    std::vector<std::atomic<int>> runs(64 * 50);
+    parallel_for(64, [&](std::size_t outer) { parallel_for(50, [&](std::size_t inner) { ++runs[outer * 50 + inner]; }, 2); }, 2);
+    for (std::size_t i = 0; i < runs.size(); ++i) ASSERT_EQ(runs[i].load(), 1) << "nested item " << i;
+    std::vector<std::atomic<int>> concurrent(4 * 2000);
+    {
+        std::vector<std::jthread> callers;
+        for (std::size_t caller = 0; caller < 4; ++caller)
+            callers.emplace_back([&, caller] {
+                for (int round = 0; round < 20; ++round)
+                    parallel_for(100, [&](std::size_t i) { ++concurrent[caller * 2000 + std::size_t(round) * 100 + i]; }, 2);
+            });
+    }
+    for (std::size_t i = 0; i < concurrent.size(); ++i) ASSERT_EQ(concurrent[i].load(), 1) << "concurrent item " << i;
+}
+
 }  // namespace
 }  // namespace amhv

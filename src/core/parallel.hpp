@@ -1,9 +1,9 @@
 #pragma once
-// Host work split over all cores, for the loops the host runs while the device waits (cutting
-// slice runs, formatting output). Threads are started per call and joined before it returns, so
-// none spins or sleeps on the cores afterwards: on a CPU Vulkan driver (lavapipe) the device's
-// own threads need them. (OpenMP's idle workers spin after each loop and slowed the sweep's
-// dispatches by up to half.)
+// Host work split over all cores, for the loops the host runs while the device waits (planning,
+// cutting slice runs, formatting output). Helper threads are started once and wait asleep between
+// loops, so none spins on the cores afterwards: on a CPU Vulkan driver (lavapipe) the device's own
+// threads need them. (OpenMP's idle workers spin after each loop and slowed the sweep's dispatches
+// by up to half; starting threads for every loop cost about 45 us a loop.)
 #include <cstddef>
 #include <functional>
 
