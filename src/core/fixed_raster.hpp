@@ -150,6 +150,10 @@ inline constexpr int kMaskColumns = 8, kMaskLanes = 32;
 
 // log2 of the row stride of a box `width` columns wide: its width rounded up to a power of two.
 inline int mask_stride_log2(int width) { return 31 - __builtin_clz((unsigned(width - 1) << 1) | 1u); }
+// A bit at the start of every row of a mask of row stride 2^stride_log2.
+inline std::uint32_t mask_row_starts(int stride_log2) {
+    return stride_log2 == 0 ? 0xffffffffu : stride_log2 == 1 ? 0x55555555u : stride_log2 == 2 ? 0x11111111u : 0x01010101u;
+}
 inline bool fits_coverage_mask(int width, int height) {
     return width <= kMaskColumns && (height << mask_stride_log2(width)) <= kMaskLanes;
 }
@@ -216,8 +220,7 @@ AMHV_TARGET_AVX2 inline std::uint32_t coverage_mask(Point2 a, Point2 b, Point2 c
     }
     // Only the lanes of the box's rows and columns.
     const std::uint32_t rows = std::uint32_t((std::uint64_t(1) << lanes) - 1u);
-    const std::uint32_t row_starts = stride == 0 ? 0xffffffffu : stride == 1 ? 0x55555555u : stride == 2 ? 0x11111111u : 0x01010101u;
-    return ~outside & rows & (row_starts * ((1u << width) - 1u));
+    return ~outside & rows & (mask_row_starts(stride) * ((1u << width) - 1u));
 }
 
 // Does the triangle cover the centre of column (x, y)? If so, `first_above` is the first voxel
