@@ -469,20 +469,21 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             total.triangles += std::uint32_t(frame_triangles(std::size_t(batch_first + slot)));
             total.items += std::uint32_t(frame_items(std::size_t(batch_first + slot)));
         }
-        room_edges.assign(room_edges_per_frame * std::size_t(batch_frames), 0);
         if (total.items == 0) return total;
+        room_edges.resize(room_edges_per_frame * std::size_t(batch_frames));  // each frame clears its own
         ensure_host_capacity(context_, triangles, std::uint64_t(total.triangles) * sizeof(GpuTriangle));
         ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
         GpuTriangle* triangle_out = triangles->mapped<GpuTriangle>().data();
         std::uint32_t* item_out = work_items->mapped<std::uint32_t>().data();
         parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
             const PreparedFrame& frame = input.frames[std::size_t(batch_first) + slot];
+            std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
+            std::fill_n(edges, room_edges_per_frame, 0);
             if (!frame.closed) return;
             std::uint32_t index = frame_base[slot].triangles;
             // Where each class's items begin.
             std::array<std::uint32_t*, kItemClasses> class_item;
             std::uint32_t* next_item = item_out + std::size_t(frame_base[slot].items) * 2;
-            std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
             const FramePlan& plan = frame_plans[std::size_t(batch_first) + slot];
             for (std::size_t c = 0; c < kItemClasses; ++c) {
                 class_item[c] = next_item;
