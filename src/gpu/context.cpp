@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <mutex>
+#include <string>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -103,7 +105,18 @@ bool validation_requested_by_environment() {
     return value && std::string(value) == "1";
 }
 
+// Lavapipe (Mesa's CPU driver) runs a dispatch on LP_NUM_THREADS threads, one per core by default,
+// each taking a fixed share of its workgroups: a core whose share ends early waits for the other.
+// With two threads per core, it takes another thread's instead (measured on the 2-core VM: a 10 mm
+// voxelisation about 1 ms faster in 41, the paper scene about 2 s in 35). Set before the driver
+// reads it, at enumeration; a value the user set stays, and other drivers ignore it.
+static void ask_lavapipe_for_two_threads_per_core() {
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    setenv("LP_NUM_THREADS", std::to_string(2 * cores).c_str(), /*overwrite=*/0);
+}
+
 Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>()) {
+    ask_lavapipe_for_two_threads_per_core();
     try {
         loader_ = std::make_unique<vk::raii::Context>();
     } catch (const std::exception&) {
