@@ -4,32 +4,18 @@
 // fixed::centre_range, fits_coverage_mask and mask_start find them one by one (the edge values in
 // double precision, where every product of two coordinate differences, below 2^18, is exact).
 #include <cstdint>
-#include <memory>
 #include <span>
 #include <vector>
 
 #include "core/fixed_raster.hpp"
+#include "core/uninitialised_allocator.hpp"
 
 namespace amhv::fixed {
 
 // One array per field, as the lanes write them: the planner reads triangle i's fields at [i].
 // Lists keep their capacity between frames; new places are not zeroed (every one is written).
 struct TriangleStarts {
-    template <typename T>
-    struct Uninitialised : std::allocator<T> {
-        template <typename U>
-        struct rebind {
-            using other = Uninitialised<U>;
-        };
-        Uninitialised() = default;
-        template <typename U>
-        Uninitialised(const Uninitialised<U>&) {}
-        template <typename U>
-        void construct(U* p) {
-            ::new (static_cast<void*>(p)) U;
-        }
-    };
-    using Ints = std::vector<std::int32_t, Uninitialised<std::int32_t>>;
+    using Ints = std::vector<std::int32_t, UninitialisedAllocator<std::int32_t>>;
     // The columns whose centres its bounding box holds, inside the grid.
     Ints x0, x1, y0, y1;
     // kSkipped: seen edge-on from above, or no column centre in its box; kMasked: the box fits a

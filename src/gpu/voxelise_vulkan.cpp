@@ -11,6 +11,7 @@
 #include "core/error.hpp"
 #include "core/grid.hpp"
 #include "core/parallel.hpp"
+#include "core/uninitialised_allocator.hpp"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
 
@@ -98,27 +99,6 @@ inline std::uint32_t covered_in(const Crossable& c, const RowSpan* spans, int fi
     return covered;
 }
 
-// Leaves new elements uninitialised: the planner sizes its lists for every triangle and writes
-// each place before reading it, and zeroing them first took 6% of its time.
-template <typename T>
-struct UninitialisedAllocator : std::allocator<T> {
-    template <typename U>
-    struct rebind {
-        using other = UninitialisedAllocator<U>;
-    };
-    UninitialisedAllocator() = default;
-    template <typename U>
-    UninitialisedAllocator(const UninitialisedAllocator<U>&) {}
-    template <typename U>
-    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
-        ::new (static_cast<void*>(p)) U;
-    }
-    template <typename U, typename... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-};
-
 struct FramePlan {
     std::vector<Crossable, UninitialisedAllocator<Crossable>> crossables;
     std::vector<RowSpan, UninitialisedAllocator<RowSpan>> rows;
@@ -160,8 +140,16 @@ template <int Tile, bool Masks>
     plan.crossables.resize(frame.triangles.size());
     plan.rows.resize(frame.triangles.size() * 3);
     std::size_t crossables = 0, rows_used = 0;
-    thread_local fixed::TriangleStarts starts;  // with Masks: find_starts's, kept by the planning thread
+    // With Masks: find_starts's, kept by the planning thread for its next frame (released when they
+    // were for more than kKeptStartTriangles).
+    thread_local fixed::TriangleStarts starts;
+    constexpr std::size_t kKeptStartTriangles = std::size_t(1) << 18;  // 14 MiB of fields
     if constexpr (Masks) fixed::find_starts(frame.triangles, nx, ny, starts);
+    struct ReleaseStarts {
+        ~ReleaseStarts() {
+            if (starts.kind.capacity() > kKeptStartTriangles) starts = {};
+        }
+    } release_starts;
     for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
         const fixed::Triangle& t = frame.triangles[i];
         int x0, x1, y0, y1;
