@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "body/shapes.hpp"
+#include "core/coverage_starts.hpp"
 #include "core/error.hpp"
 #include "core/fixed_raster.hpp"
 #include "core/voxelise.hpp"
@@ -150,6 +151,64 @@ TEST(Voxelise, CoverageMasksAreExactlyTheCoveredColumns) {
     EXPECT_GT(masks, 25000u);
     EXPECT_GT(beyond_16_lanes, 2500u);
     EXPECT_GT(covered, 50000u) << masks << " masks, " << beyond_16_lanes << " beyond 16 lanes";
+}
+
+// The planner's first look at 8 triangles at a time must find what the scalar functions find one by
+// one: box, kind and mask start, for triangles of every size, edge-on ones, ones partly or wholly
+// outside the grid, and counts that leave a partial group of 8.
+TEST(Voxelise, TriangleStartsMatchTheScalarPlanner) {
+    if (!fixed::coverage_masks_supported()) GTEST_SKIP() << "the 8-lane planner needs AVX2";
+    std::mt19937 random(23);
+    const int nx = 300, ny = 200;  // columns; coordinates reach past the grid on every side
+    std::uniform_int_distribution<std::int32_t> base_x(-64 * 20, 64 * (nx + 20)), base_y(-64 * 20, 64 * (ny + 20));
+    std::uniform_int_distribution<std::int32_t> extent(0, 3), small(0, 64 * 3), large(0, 64 * 40);
+    std::vector<fixed::Triangle> triangles;
+    for (int i = 0; i < 20003; ++i) {
+        const std::int32_t bx = base_x(random), by = base_y(random);
+        auto offset = [&] { return extent(random) == 0 ? large(random) : small(random); };
+        fixed::Triangle t{};
+        for (auto& v : t) v = {bx + offset(), by + offset(), offset()};
+        if (i % 7 == 0) t[1].y = t[0].y;                     // a level edge
+        if (i % 11 == 0) t[2] = {t[0].x, t[0].y, t[2].z};     // edge-on from above
+        if (i % 13 == 0) t[1].x = t[0].x;                     // a vertical edge
+        if (i % 5 == 0) t[0] = {bx / 64 * 64 + 32, by / 64 * 64 + 32, 0};  // on a column centre
+        triangles.push_back(t);
+    }
+    for (std::size_t count : {std::size_t(0), std::size_t(5), triangles.size()}) {
+        fixed::TriangleStarts starts;
+        fixed::find_starts(std::span(triangles).first(count), nx, ny, starts);
+        std::size_t masked = 0, spanned = 0;
+        for (std::size_t i = 0; i < count; ++i) {
+            fixed::Oriented o;
+            const bool faces_up_or_down = fixed::orient(triangles[i], o);
+            const int x0 = std::max(o.columns_x.first, 0), x1 = std::min(o.columns_x.last, nx - 1);
+            const int y0 = std::max(o.columns_y.first, 0), y1 = std::min(o.columns_y.last, ny - 1);
+            const bool valid = faces_up_or_down && x0 <= x1 && y0 <= y1;
+            ASSERT_EQ(starts.kind[i] != fixed::TriangleStarts::kSkipped, valid) << "triangle " << i;
+            if (!valid) continue;
+            ASSERT_EQ(starts.x0[i], x0) << i;
+            ASSERT_EQ(starts.x1[i], x1) << i;
+            ASSERT_EQ(starts.y0[i], y0) << i;
+            ASSERT_EQ(starts.y1[i], y1) << i;
+            const bool fits = fixed::fits_coverage_mask(x1 - x0 + 1, y1 - y0 + 1);
+            ASSERT_EQ(starts.kind[i], fits ? fixed::TriangleStarts::kMasked : fixed::TriangleStarts::kSpanned) << i;
+            if (!fits) {
+                ++spanned;
+                continue;
+            }
+            ++masked;
+            const fixed::MaskStart expected = fixed::mask_start(o.a.xy(), o.b.xy(), o.c.xy(), x0, y0), found = starts.start(i);
+            for (int e = 0; e < 3; ++e) {
+                ASSERT_EQ(found.corner[e], expected.corner[e]) << "triangle " << i << " edge " << e;
+                ASSERT_EQ(found.per_row[e], expected.per_row[e]) << "triangle " << i << " edge " << e;
+                ASSERT_EQ(found.per_column[e], expected.per_column[e]) << "triangle " << i << " edge " << e;
+            }
+        }
+        if (count == triangles.size()) {
+            EXPECT_GT(masked, 5000u);
+            EXPECT_GT(spanned, 2000u);
+        }
+    }
 }
 
 TEST(Voxelise, SphereMatchesReferenceAndVolume) {

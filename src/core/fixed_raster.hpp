@@ -195,32 +195,49 @@ AMHV_TARGET_AVX2 inline std::uint32_t negative_lanes(Lanes8 value) {
 }
 }  // namespace detail
 
-// a, b, c counter-clockwise seen from above (Oriented's order); the box's corner column (x0, y0),
-// its width and height with fits_coverage_mask.
-AMHV_TARGET_AVX2 inline std::uint32_t coverage_mask(Point2 a, Point2 b, Point2 c, int x0, int y0, int width, int height) {
-    const int stride = mask_stride_log2(width);
+// A triangle's three edge values at its box's corner column (clamped, top-left rule folded in) and
+// their steps per row and per column: what coverage_mask's lanes start from.
+struct MaskStart {
+    std::int32_t corner[3];  // edges b->c, c->a, a->b
+    std::int32_t per_row[3], per_column[3];
+};
+
+// a, b, c counter-clockwise seen from above (Oriented's order); the box's corner column (x0, y0).
+inline MaskStart mask_start(Point2 a, Point2 b, Point2 c, int x0, int y0) {
     const Point2 corner{std::int32_t(x0 * kSubvoxel + kSubvoxel / 2), std::int32_t(y0 * kSubvoxel + kSubvoxel / 2)};
     constexpr std::int64_t limit = std::int64_t(1) << 30;
     auto corner_value = [&](Point2 from, Point2 to) {
         const std::int32_t top_left = (to.y - from.y < 0) | ((to.y - from.y == 0) & (to.x - from.x < 0));
         return std::int32_t(std::clamp(edge_function(from, to, corner), -limit, limit)) - (top_left ^ 1);
     };
-    const std::int32_t wa = corner_value(b, c), wb = corner_value(c, a), wc = corner_value(a, b);
     // edge_function(u, v, p) grows by -(v.y - u.y) per unit of p.x and by (v.x - u.x) per unit of p.y.
     const std::int32_t S = std::int32_t(kSubvoxel);
-    const std::int32_t row_a = (c.x - b.x) * S, row_b = (a.x - c.x) * S, row_c = (b.x - a.x) * S;
-    const std::int32_t column_a = (b.y - c.y) * S, column_b = (c.y - a.y) * S, column_c = (a.y - b.y) * S;
+    return {{corner_value(b, c), corner_value(c, a), corner_value(a, b)},
+            {(c.x - b.x) * S, (a.x - c.x) * S, (b.x - a.x) * S},
+            {(b.y - c.y) * S, (c.y - a.y) * S, (a.y - b.y) * S}};
+}
+
+// The covered columns of a box `width` x `height` (fits_coverage_mask) from its MaskStart.
+AMHV_TARGET_AVX2 inline std::uint32_t coverage_mask(const MaskStart& start, int width, int height) {
+    const int stride = mask_stride_log2(width);
     const int lanes = height << stride;
     std::uint32_t outside = 0;
     for (int group = 0; group < (lanes + 7) / 8; ++group) {
         const detail::Lanes8 row = detail::kMaskLanesTable.lanes[stride][group][0], column = detail::kMaskLanesTable.lanes[stride][group][1];
-        const detail::Lanes8 value = (row * row_a + column * column_a + wa) | (row * row_b + column * column_b + wb) |
-                                     (row * row_c + column * column_c + wc);
+        const detail::Lanes8 value = (row * start.per_row[0] + column * start.per_column[0] + start.corner[0]) |
+                                     (row * start.per_row[1] + column * start.per_column[1] + start.corner[1]) |
+                                     (row * start.per_row[2] + column * start.per_column[2] + start.corner[2]);
         outside |= detail::negative_lanes(value) << (8 * group);
     }
     // Only the lanes of the box's rows and columns.
     const std::uint32_t rows = std::uint32_t((std::uint64_t(1) << lanes) - 1u);
     return ~outside & rows & (mask_row_starts(stride) * ((1u << width) - 1u));
+}
+
+// a, b, c counter-clockwise seen from above (Oriented's order); the box's corner column (x0, y0),
+// its width and height with fits_coverage_mask.
+AMHV_TARGET_AVX2 inline std::uint32_t coverage_mask(Point2 a, Point2 b, Point2 c, int x0, int y0, int width, int height) {
+    return coverage_mask(mask_start(a, b, c, x0, y0), width, height);
 }
 
 // Does the triangle cover the centre of column (x, y)? If so, `first_above` is the first voxel

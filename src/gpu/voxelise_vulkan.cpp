@@ -7,9 +7,11 @@
 #include <memory>
 #include <type_traits>
 
+#include "core/coverage_starts.hpp"
 #include "core/error.hpp"
 #include "core/grid.hpp"
 #include "core/parallel.hpp"
+#include "core/uninitialised_allocator.hpp"
 #include "voxel_columns.spv.h"
 #include "voxel_raster.spv.h"
 
@@ -97,27 +99,6 @@ inline std::uint32_t covered_in(const Crossable& c, const RowSpan* spans, int fi
     return covered;
 }
 
-// Leaves new elements uninitialised: the planner sizes its lists for every triangle and writes
-// each place before reading it, and zeroing them first took 6% of its time.
-template <typename T>
-struct UninitialisedAllocator : std::allocator<T> {
-    template <typename U>
-    struct rebind {
-        using other = UninitialisedAllocator<U>;
-    };
-    UninitialisedAllocator() = default;
-    template <typename U>
-    UninitialisedAllocator(const UninitialisedAllocator<U>&) {}
-    template <typename U>
-    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
-        ::new (static_cast<void*>(p)) U;
-    }
-    template <typename U, typename... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-};
-
 struct FramePlan {
     std::vector<Crossable, UninitialisedAllocator<Crossable>> crossables;
     std::vector<RowSpan, UninitialisedAllocator<RowSpan>> rows;
@@ -159,22 +140,34 @@ template <int Tile, bool Masks>
     plan.crossables.resize(frame.triangles.size());
     plan.rows.resize(frame.triangles.size() * 3);
     std::size_t crossables = 0, rows_used = 0;
+    // With Masks: find_starts's, kept by the planning thread for its next frame (released when they
+    // were for more than kKeptStartTriangles).
+    thread_local fixed::TriangleStarts starts;
+    constexpr std::size_t kKeptStartTriangles = std::size_t(1) << 18;  // 14 MiB of fields
+    if constexpr (Masks) fixed::find_starts(frame.triangles, nx, ny, starts);
+    struct ReleaseStarts {
+        ~ReleaseStarts() {
+            if (starts.kind.capacity() > kKeptStartTriangles) starts = {};
+        }
+    } release_starts;
     for (std::size_t i = 0; i < frame.triangles.size(); ++i) {
         const fixed::Triangle& t = frame.triangles[i];
-        // Counter-clockwise seen from above, chosen without a branch: which way a triangle faces is
-        // as good as random.
-        const fixed::Point2 a = t[0].xy(), b_given = t[1].xy(), c_given = t[2].xy();
-        const std::int64_t area = fixed::edge_function(a, b_given, c_given);
-        const fixed::Point2 b = area < 0 ? c_given : b_given, c = area < 0 ? b_given : c_given;
-        const fixed::IndexRange columns_x = fixed::centre_range(std::min({a.x, b.x, c.x}), std::max({a.x, b.x, c.x}));
-        const fixed::IndexRange columns_y = fixed::centre_range(std::min({a.y, b.y, c.y}), std::max({a.y, b.y, c.y}));
-        const int x0 = std::max(columns_x.first, 0), x1 = std::min(columns_x.last, nx - 1);
-        const int y0 = std::max(columns_y.first, 0), y1 = std::min(columns_y.last, ny - 1);
-        // Seen edge-on from above, or no column centre in its bounding box.
-        if ((area == 0) | (x0 > x1) | (y0 > y1)) continue;
+        int x0, x1, y0, y1;
+        if constexpr (Masks) {
+            if (starts.kind[i] == fixed::TriangleStarts::kSkipped) continue;
+            x0 = starts.x0[i], x1 = starts.x1[i], y0 = starts.y0[i], y1 = starts.y1[i];
+        } else {
+            const fixed::Point2 a = t[0].xy(), b = t[1].xy(), c = t[2].xy();
+            const fixed::IndexRange columns_x = fixed::centre_range(std::min({a.x, b.x, c.x}), std::max({a.x, b.x, c.x}));
+            const fixed::IndexRange columns_y = fixed::centre_range(std::min({a.y, b.y, c.y}), std::max({a.y, b.y, c.y}));
+            x0 = std::max(columns_x.first, 0), x1 = std::min(columns_x.last, nx - 1);
+            y0 = std::max(columns_y.first, 0), y1 = std::min(columns_y.last, ny - 1);
+            // Seen edge-on from above, or no column centre in its bounding box.
+            if ((fixed::edge_function(a, b, c) == 0) | (x0 > x1) | (y0 > y1)) continue;
+        }
         const int width = x1 - x0 + 1, height = y1 - y0 + 1;
-        if (Masks && fixed::fits_coverage_mask(width, height)) {
-            const std::uint32_t mask = fixed::coverage_mask(a, b, c, x0, y0, width, height);
+        if (Masks && starts.kind[i] == fixed::TriangleStarts::kMasked) {
+            const std::uint32_t mask = fixed::coverage_mask(starts.start(i), width, height);
             const int stride = fixed::mask_stride_log2(width);
             // The box of the covered columns: rows from the lowest and highest bits, columns from the
             // rows folded onto each other. The mask is then taken from the box's corner.
