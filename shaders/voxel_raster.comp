@@ -5,8 +5,8 @@
 // goes into its bucket's next slot, where layer is the first voxel centre above the crossing,
 // relative to the slab (crossings below the slab count from its first layer; those above it
 // affect no voxel of the slab and are left out). The host gave every bucket room for one key per
-// triangle whose row span holds the column (a conservative cross-section), so the slots never run
-// out, and each triangle's box of those spans bounds the columns tested.
+// triangle that may cover the column (its exact coverage mask, or its conservative cross-sections
+// with the rows), so the slots never run out, and the box of those columns bounds the ones tested.
 // Work per invocation is at most TILE*TILE columns, tested 8 x 8 at a time, then as many slot
 // takings as columns covered: well under lavapipe's loop cap.
 #extension GL_GOOGLE_include_directive : require
@@ -18,7 +18,7 @@ layout(constant_id = 1) const int TILE = 16;
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
 // storage-buffer load runs lane by lane.
 // 3 texels per triangle: a, b, c (xyz fixed point; a.w = frame slot; b.w = x0 | x1 << 16 and
-// c.w = y0 | y1 << 16, the box of the columns its cross-sections may hold, inside the grid).
+// c.w = y0 | y1 << 16, the box of the columns it may cover, inside the grid).
 layout(set = 0, binding = 0) uniform isamplerBuffer triangles;
 layout(set = 0, binding = 1) uniform usamplerBuffer work_items; // 2 texels per item: triangle, tile x | tile y << 16
 // The next free key slot of each bucket.

@@ -207,8 +207,7 @@ inline MaskStart mask_start(Point2 a, Point2 b, Point2 c, int x0, int y0) {
     const Point2 corner{std::int32_t(x0 * kSubvoxel + kSubvoxel / 2), std::int32_t(y0 * kSubvoxel + kSubvoxel / 2)};
     constexpr std::int64_t limit = std::int64_t(1) << 30;
     auto corner_value = [&](Point2 from, Point2 to) {
-        const std::int32_t top_left = (to.y - from.y < 0) | ((to.y - from.y == 0) & (to.x - from.x < 0));
-        return std::int32_t(std::clamp(edge_function(from, to, corner), -limit, limit)) - (top_left ^ 1);
+        return std::int32_t(std::clamp(edge_function(from, to, corner), -limit, limit)) - (is_top_left(from, to) ? 0 : 1);
     };
     // edge_function(u, v, p) grows by -(v.y - u.y) per unit of p.x and by (v.x - u.x) per unit of p.y.
     const std::int32_t S = std::int32_t(kSubvoxel);

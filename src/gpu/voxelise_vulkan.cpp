@@ -5,7 +5,6 @@
 #include <bit>
 #include <cstring>
 #include <memory>
-#include <type_traits>
 
 #include "core/coverage_starts.hpp"
 #include "core/error.hpp"
@@ -43,11 +42,11 @@ struct RowSpan {
 static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 
 // A triangle of a closed frame that covers a column centre, with the columns it may cover and their
-// box: a small one's covered columns exactly (fixed::coverage_mask, 86% of them at 10 mm), a larger
+// box: a small one's covered columns exactly (fixed::coverage_mask, 93% of them at 10 mm), a larger
 // one's rows' spans of columns (each row's cross-section, fixed::CrossSections, which may hold a
-// column more where a centre lies on an edge). A bucket's room is the columns that hold its column,
-// and the raster tests the box, or takes the mask's columns as they are. Found once per call, while
-// planning; the batches' gathering reads them back.
+// column more where a centre lies on an edge). A bucket's room is the crossables whose mask or
+// spans hold its column, and the raster tests the box. Found once per call, while planning; the
+// batches' gathering reads them back.
 struct Crossable {
     std::uint32_t triangle;  // index in the frame
     // With a mask stride: the coverage mask from the box's corner. Else the index of row y0's span
@@ -102,11 +101,20 @@ inline std::uint32_t covered_in(const Crossable& c, const RowSpan* spans, int fi
 struct FramePlan {
     std::vector<Crossable, UninitialisedAllocator<Crossable>> crossables;
     std::vector<RowSpan, UninitialisedAllocator<RowSpan>> rows;
-    std::uint64_t keys = 0;   // the spans' columns: an upper bound on the frame's crossings
+    std::uint64_t keys = 0;   // the masks' and spans' columns: an upper bound on the frame's crossings
     std::uint64_t items = 0;  // raster work items: the tiles its boxes touch
     std::array<std::uint32_t, kItemClasses> class_items{};  // work items per class
     // The classes of the items of crossables over several tiles, in order (for_each_tile's).
     std::vector<std::uint8_t, UninitialisedAllocator<std::uint8_t>> tile_classes;
+
+    // Empty, with the lists' capacity kept for the next frame.
+    void clear() {
+        crossables.clear();
+        rows.clear();
+        tile_classes.clear();
+        keys = items = 0;
+        class_items = {};
+    }
 };
 
 // The coverage mask's row r (bits from the box's first column), for a mask of row stride 2^stride.
@@ -133,8 +141,7 @@ void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedA
 // lists keep their capacity from an earlier call.
 template <int Tile, bool Masks>
 [[gnu::always_inline]] inline void plan_frame(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
-    plan.keys = plan.items = 0;
-    plan.class_items = {};
+    plan.clear();
     // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
     // and a kept one advances the counts (without branches, as below).
     plan.crossables.resize(frame.triangles.size());
@@ -218,7 +225,6 @@ template <int Tile, bool Masks>
     }
     plan.crossables.resize(crossables);
     plan.rows.resize(rows_used);
-    plan.tile_classes.clear();
     for (const Crossable& crossable : plan.crossables) {
         if (in_one_tile<Tile>(crossable)) {
             ++plan.class_items[std::min(crossable.covered, kItemClasses - 1)];
@@ -318,11 +324,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         const PreparedFrame& frame = input.frames[f];
         FramePlan& plan = frame_plans[f];
         if (!frame.closed) {  // the host's surface rule handles it
-            plan.crossables.clear();
-            plan.rows.clear();
-            plan.tile_classes.clear();
-            plan.keys = plan.items = 0;
-            plan.class_items = {};
+            plan.clear();
             return;
         }
         if (masks)
@@ -441,10 +443,10 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
 
     // Host side of a batch: its triangles, one work item per (triangle, tile its box touches), and
     // each bucket's stretch of the key list: a bucket (column, frame) gets room for one key per
-    // triangle of that frame whose row span holds the column, an upper bound on its crossings, so
-    // the raster fills the buckets in one pass (each crossing takes the next slot of its bucket).
-    // Each frame's rooms are first a difference array along the rows, (nx + 1) x ny: a row span
-    // adds one with two updates, and the starts loop sums them up.
+    // crossable of that frame whose mask or row span holds the column, an upper bound on its
+    // crossings, so the raster fills the buckets in one pass (each crossing takes the next slot of
+    // its bucket). Each frame's rooms are first a difference array along the rows, (nx + 1) x ny: a
+    // row of a mask or span adds one with two updates, and the starts loop sums them up.
     const std::size_t room_row = std::size_t(nx + 1), room_edges_per_frame = room_row * std::size_t(ny);
     std::vector<std::int32_t>& room_edges = host_->room_edges;
     std::vector<std::uint32_t> slot_base;
