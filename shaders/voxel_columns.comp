@@ -383,9 +383,11 @@ void flip_small(uint column) {
         WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
         WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, NO_KEY, 7u)
         uint bit = 1u << (uint(bit_offset) + s);
+        // The column's flips are this invocation's alone, but an atomic XOR is one loop over the
+        // lanes on lavapipe where `^=` is two, a load's and a store's (this stage 0.6 ms faster at 10 mm).
         for (uint pending_flips = flip_bits; pending_flips != 0u; pending_flips &= pending_flips - 1u) {
             uint i = uint(findLSB(pending_flips));
-            toggles[flip_base + (PICK8(i) >> 1)] ^= bit;
+            atomicXor(toggles[flip_base + (PICK8(i) >> 1)], bit);
         }
         if (flip_bits != 0u) {
             uint i = uint(findLSB(flip_bits));

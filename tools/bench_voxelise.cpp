@@ -4,8 +4,15 @@
 // reference in the same run. Reports frames/s and voxel-frames/s (grid voxels x frames per second)
 // with mean, median and spread over repetitions.
 //
-//   build/tools/amhv_bench_voxelise [--benchmark_repetitions=N]
+// The repetitions of all four runs go in random interleaved order (Google Benchmark's
+// --benchmark_enable_random_interleaving, on by default here): the VMs this runs on change speed
+// in phases of tens of seconds, and run one after another the Vulkan path and the reference would
+// meet different phases, so their ratio would measure the VM as much as the code.
+//
+//   build/tools/amhv_bench_voxelise [--benchmark_repetitions=N] [--benchmark_enable_random_interleaving=false]
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
@@ -76,9 +83,20 @@ void B1_voxelise_cpu_reference(benchmark::State& state) {
 }
 
 // Arguments: voxel edge in millimetres.
-BENCHMARK(B1_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(5)->UseRealTime();
-BENCHMARK(B1_voxelise_cpu_reference)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(5)->UseRealTime();
+BENCHMARK(B1_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
+BENCHMARK(B1_voxelise_cpu_reference)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+    // Interleaving first, so that a flag given on the command line (parsed later) wins.
+    std::string interleave = "--benchmark_enable_random_interleaving=true";
+    std::vector<char*> arguments{argv[0], interleave.data()};
+    arguments.insert(arguments.end(), argv + 1, argv + argc);
+    int count = int(arguments.size());
+    benchmark::Initialize(&count, arguments.data());
+    if (benchmark::ReportUnrecognizedArguments(count, arguments.data())) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
