@@ -118,6 +118,33 @@ TEST(Cli, MultipartExrHasOnePartPerSlice) {
     EXPECT_EQ(file.header(0).name(), "y_0000");
 }
 
+// A volume file whose voxel is occupied in a frame past its last one (a bit the writer never sets)
+// is refused with the file and the frame named: later stages index frames by bit.
+TEST(VolumeFile, OccupancyPastTheLastFrameIsRefused) {
+    test::TempDir tmp;
+    VoxelGrid grid;
+    grid.dims = {4, 3, 2};
+    grid.voxel = 0.01;
+    Amhv volume(grid, 8);
+    volume.plane(0)[grid.index(1, 2, 1)] = 0b1010u;
+    const auto path = tmp.path() / "volume.amhv";
+    write_amhv(volume, path);
+    EXPECT_EQ(read_amhv(path).word(0, grid.index(1, 2, 1)), 0b1010u);
+    {  // the file ends in the last record's last word: set its frame 20
+        std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+        file.seekp(-1, std::ios::end);
+        file.put(char(0x10));
+    }
+    try {
+        read_amhv(path);
+        ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find(path.string()), std::string::npos) << message;
+        EXPECT_NE(message.find("occupied in frame 28, past the last frame 7"), std::string::npos) << message;
+    }
+}
+
 TEST(Cli, BvhBodyAndVdb) {
     test::TempDir tmp;
     auto out = tmp.path() / "out";

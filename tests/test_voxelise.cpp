@@ -415,7 +415,9 @@ TEST(Voxelise, ManyCrossingsPerColumnSortAndMatchReference) {
 // A batch whose column has more crossings than the column kernel sorts is redone with fewer
 // frames; a single frame with too many is an error that names it, never a silently wrong volume.
 // Frame 0 (one box) crosses a column twice, frame 1 (two stacked boxes) four times: a limit of 4
-// splits the two-frame batch and matches the reference, a limit of 3 must refuse frame 1.
+// splits the two-frame batch and matches the reference, a limit of 3 must refuse frame 1. The
+// refusal leaves the skipped column's flips behind: the voxeliser's next call must not see them
+// (it clears all flips before its first batch).
 TEST(Voxelise, TooManyCrossingsPerColumnIsAnErrorNamingTheFrame) {
     TriangleMesh stacked = shapes::box({0.0, 0.0, 0.0}, {0.2, 0.2, 0.1});
     stacked.append(shapes::box({0.0, 0.0, 0.2}, {0.2, 0.2, 0.3}));
@@ -428,8 +430,14 @@ TEST(Voxelise, TooManyCrossingsPerColumnIsAnErrorNamingTheFrame) {
         EXPECT_NE(std::string(e.what()).find("frame 1: a voxel column crosses the surface 4 times, more than the 3"), std::string::npos)
             << e.what();
     }
-    gpu::VulkanVoxeliser enough(test::context(), {.max_column_crossings = 4});
     ReferenceVoxeliser reference;
+    {
+        auto single = prepare_voxelisation(sequence_of({shapes::box({0.0, 0.0, 0.0}, {0.2, 0.2, 0.1})}), 0.01);
+        Both after_error{voxelise(single, reference), voxelise(single, strict), strict.last_plan()};
+        expect_identical(after_error);
+        EXPECT_GT(occupied(after_error.gpu), 100u);
+    }
+    gpu::VulkanVoxeliser enough(test::context(), {.max_column_crossings = 4});
     Both both{voxelise(input, reference), voxelise(input, enough), {}};
     both.plan = enough.last_plan();
     EXPECT_EQ(both.plan.overflow_retries, 1);

@@ -71,11 +71,17 @@ Amhv read_amhv(const std::filesystem::path& path) {
     auto count = get<std::uint64_t>(in, source);
     if (count > volume.voxel_count()) fail(source, "{} occupied voxels in a grid of {}", count, volume.voxel_count());
     std::uint32_t previous = 0;
+    // The last word's bits past the last frame must be 0: later stages index frames by bit.
+    const std::uint32_t last_word_frames = frames - (words - 1) * 32;
+    const std::uint32_t past_last_frame = last_word_frames == 32 ? 0u : ~((1u << last_word_frames) - 1u);
     for (std::uint64_t i = 0; i < count; ++i) {
         auto v = get<std::uint32_t>(in, source);
         if (v >= volume.voxel_count() || (i > 0 && v <= previous)) fail(source, "voxel record {} has a bad index {}", i, v);
         previous = v;
         for (std::uint32_t w = 0; w < words; ++w) volume.plane(int(w))[v] = get<std::uint32_t>(in, source);
+        if (volume.plane(int(words - 1))[v] & past_last_frame)
+            fail(source, "voxel record {} is occupied in frame {}, past the last frame {}", i,
+                 (words - 1) * 32 + std::uint32_t(std::countr_zero(volume.plane(int(words - 1))[v] & past_last_frame)), frames - 1);
     }
     return volume;
 }
