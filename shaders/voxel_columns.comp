@@ -326,7 +326,8 @@ void write_column(uint column, int first, int last) {
     } else {
         for (int z = first; z <= last; ++z) {
             word ^= toggles[flip_base + uint(z)];
-            if (word != 0u) mask[mask_base + uint(z) * columns + column] |= word;
+            // An atomic OR: one loop over the lanes on lavapipe, where `|=` is two.
+            if (word != 0u) atomicOr(mask[mask_base + uint(z) * columns + column], word);
         }
     }
 }
