@@ -130,7 +130,7 @@ TEST(VolumeFile, OccupancyPastTheLastFrameIsRefused) {
     const auto path = tmp.path() / "volume.amhv";
     write_amhv(volume, path);
     EXPECT_EQ(read_amhv(path).word(0, grid.index(1, 2, 1)), 0b1010u);
-    {  // the file ends in the last record's last word: set its frame 20
+    {  // the file ends in the last record's last word: its top byte 0x10 is frame 28
         std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
         file.seekp(-1, std::ios::end);
         file.put(char(0x10));

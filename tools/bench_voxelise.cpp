@@ -1,5 +1,5 @@
 // B1 - voxelisation throughput on a human-sized mesh sequence: 120 frames of CMU subject 18
-// (walking into a handshake, 120 fps) as capsule bodies (~11k triangles per frame), at 10 mm and
+// (walking into a handshake, 120 fps) as capsule bodies (about 5.2k triangles per frame), at 10 mm and
 // 5 mm, on the Vulkan device amhv picks (lavapipe on CI machines) and with the single-threaded CPU
 // reference in the same run. Reports frames/s and voxel-frames/s (grid voxels x frames per second)
 // with mean, median and spread over repetitions.
@@ -9,7 +9,10 @@
 // in phases of tens of seconds, and run one after another the Vulkan path and the reference would
 // meet different phases, so their ratio would measure the VM as much as the code.
 //
-//   build/tools/amhv_bench_voxelise [--benchmark_repetitions=N] [--benchmark_enable_random_interleaving=false]
+//   build/tools/amhv_bench_voxelise [--benchmark_filter=vulkan/10] [--benchmark_enable_random_interleaving=false]
+// (each run sets its own 9 repetitions, which --benchmark_repetitions does not override)
+#include <cstdio>
+#include <exception>
 #include <memory>
 #include <string>
 #include <vector>
@@ -88,7 +91,7 @@ BENCHMARK(B1_voxelise_cpu_reference)->Arg(10)->Arg(5)->Unit(benchmark::kMillisec
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
     // Interleaving first, so that a flag given on the command line (parsed later) wins.
     std::string interleave = "--benchmark_enable_random_interleaving=true";
     std::vector<char*> arguments{argv[0], interleave.data()};
@@ -99,4 +102,7 @@ int main(int argc, char** argv) {
     benchmark::RunSpecifiedBenchmarks();
     benchmark::Shutdown();
     return 0;
+} catch (const std::exception& e) {
+    std::fprintf(stderr, "amhv_bench_voxelise: %s\n", e.what());
+    return 1;
 }
