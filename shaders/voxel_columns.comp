@@ -306,6 +306,15 @@ void sort_bucket(uint start, uint n) {
 // Key i of k0..k7, by a tree of selects: registers cannot be indexed.
 #define PICK8(i) (((i) & 4u) != 0u ? (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k7 : k6) : (((i) & 1u) != 0u ? k5 : k4)) \
                                    : (((i) & 2u) != 0u ? (((i) & 1u) != 0u ? k3 : k2) : (((i) & 1u) != 0u ? k1 : k0)))
+// XORs the frame's `bit` into the flip word of every layer in flip_bits, at `flip_base`. By atomics
+// also where the column's flips are the invocation's alone (FLIP_SMALL): on lavapipe an atomic XOR
+// is one loop over the lanes where `^=` is two, a load's and a store's (that stage 0.6 ms faster at
+// 10 mm). PICK is the select tree of the bucket's registers.
+#define XOR_FLIPS(PICK)                                                        \
+    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {   \
+        uint i = uint(findLSB(pending));                                       \
+        atomicXor(toggles[flip_base + (PICK(i) >> 1)], bit);                   \
+    }
 #define ORDER(a, b)              \
     {                            \
         uint lower = min(a, b);  \
@@ -384,12 +393,7 @@ void flip_small(uint column) {
         WALK_BIT(k0, k1, 0u) WALK_BIT(k1, k2, 1u) WALK_BIT(k2, k3, 2u) WALK_BIT(k3, k4, 3u)
         WALK_BIT(k4, k5, 4u) WALK_BIT(k5, k6, 5u) WALK_BIT(k6, k7, 6u) WALK_BIT(k7, NO_KEY, 7u)
         uint bit = 1u << (uint(bit_offset) + s);
-        // The column's flips are this invocation's alone, but an atomic XOR is one loop over the
-        // lanes on lavapipe where `^=` is two, a load's and a store's (this stage 0.6 ms faster at 10 mm).
-        for (uint pending_flips = flip_bits; pending_flips != 0u; pending_flips &= pending_flips - 1u) {
-            uint i = uint(findLSB(pending_flips));
-            atomicXor(toggles[flip_base + (PICK8(i) >> 1)], bit);
-        }
+        XOR_FLIPS(PICK8)
         if (flip_bits != 0u) {
             uint i = uint(findLSB(flip_bits));
             first = min(first, int(PICK8(i) >> 1));
@@ -413,20 +417,17 @@ void flip_small(uint column) {
 
 // The end of a larger bucket's walk: its flips and its column's span go in by atomics (frames of
 // one column share them). PICK is the select tree of the bucket's registers.
-#define ADD_FLIPS(PICK)                                                                 \
-    if (flip_bits == 0u) return;                                                        \
-    uint bit = 1u << (uint(bit_offset) + slot_of(bucket));                       \
-    uint flip_base = column * uint(slab_layers);                                 \
-    for (uint pending = flip_bits; pending != 0u; pending &= pending - 1u) {            \
-        uint i = uint(findLSB(pending));                                                \
-        atomicXor(toggles[flip_base + (PICK(i) >> 1)], bit);                            \
-    }                                                                                   \
-    uint i = uint(findLSB(flip_bits));                                                  \
-    int first = int(PICK(i) >> 1);                                                      \
-    i = uint(findMSB(flip_bits));                                                       \
+#define ADD_FLIPS(PICK)                                                                          \
+    if (flip_bits == 0u) return;                                                                 \
+    uint bit = 1u << (uint(bit_offset) + slot_of(bucket));                                       \
+    uint flip_base = column * uint(slab_layers);                                                 \
+    XOR_FLIPS(PICK)                                                                              \
+    uint i = uint(findLSB(flip_bits));                                                           \
+    int first = int(PICK(i) >> 1);                                                               \
+    i = uint(findMSB(flip_bits));                                                                \
     /* Still inside after the last crossing (the closing ones lie above the slab): to the top. */ \
-    int last = inside ? slab_layers - 1 : int(PICK(i) >> 1);                     \
-    atomicMin(spans[column].x, first);                                                  \
+    int last = inside ? slab_layers - 1 : int(PICK(i) >> 1);                                     \
+    atomicMin(spans[column].x, first);                                                           \
     atomicMax(spans[column].y, last);
 
 // Key i of k0..k31, by a tree of selects: registers cannot be indexed.

@@ -65,6 +65,9 @@ constexpr std::uint8_t kSpans = 0xff;
 // rounds of all its columns: lanes took slots in 53% of the rounds in dispatch order, 83% with the
 // items over several tiles classed by their share of the box's area, 98% with them counted).
 constexpr std::uint32_t kItemClasses = 64;
+// The class of a work item with `covered` columns: the planner counts each class's items by it and
+// the gathering places them by it, so the two must agree.
+inline std::uint32_t item_class(std::uint32_t covered) { return std::min(covered, kItemClasses - 1); }
 
 // Calls visit(tile_x, tile_y, first_x, last_x, first_y, last_y) for each tile a crossable's box
 // touches, with the box's part of it, row by row.
@@ -227,13 +230,13 @@ template <int Tile, bool Masks>
     plan.rows.resize(rows_used);
     for (const Crossable& crossable : plan.crossables) {
         if (in_one_tile<Tile>(crossable)) {
-            ++plan.class_items[std::min(crossable.covered, kItemClasses - 1)];
+            ++plan.class_items[item_class(crossable.covered)];
             continue;
         }
         for_each_tile<Tile>(crossable, [&](int, int, int first_x, int last_x, int first_y, int last_y) {
-            const std::uint32_t item_class = std::min(covered_in(crossable, plan.rows.data(), first_x, last_x, first_y, last_y), kItemClasses - 1);
-            ++plan.class_items[item_class];
-            plan.tile_classes.push_back(std::uint8_t(item_class));
+            const std::uint32_t tile_class = item_class(covered_in(crossable, plan.rows.data(), first_x, last_x, first_y, last_y));
+            ++plan.class_items[tile_class];
+            plan.tile_classes.push_back(std::uint8_t(tile_class));
         });
     }
     for (const std::uint32_t items : plan.class_items) plan.items += items;
@@ -495,13 +498,13 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     ++edges[std::size_t(y) * room_row + std::size_t(first)];
                     --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
                 });
-                auto add_item = [&](int tile_x, int tile_y, std::uint32_t item_class) {
-                    std::uint32_t*& item = class_item[item_class];
+                auto add_item = [&](int tile_x, int tile_y, std::uint32_t its_class) {
+                    std::uint32_t*& item = class_item[its_class];
                     *item++ = index;
                     *item++ = std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16);
                 };
                 if (in_one_tile<kTile>(crossable))
-                    add_item(crossable.x0 / kTile, crossable.y0 / kTile, std::min(crossable.covered, kItemClasses - 1));
+                    add_item(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable.covered));
                 else
                     for_each_tile<kTile>(crossable, [&](int tile_x, int tile_y, int, int, int, int) { add_item(tile_x, tile_y, *next_class++); });
                 ++index;
