@@ -17,10 +17,14 @@ layout(constant_id = 1) const int TILE = 16;
 
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
 // storage-buffer load runs lane by lane.
-// 3 texels per triangle: a, b, c (xyz fixed point; a.w = frame slot; b.w = x0 | x1 << 16 and
-// c.w = y0 | y1 << 16, the box of the columns it may cover, inside the grid).
+// 3 texels per triangle: a, b, c, xyz fixed point; a.w = frame slot | MASKED | mask stride << 8.
+// A triangle with MASKED comes with its covered columns, as the host found them by the same exact
+// test (fixed::coverage_mask): c.w = a mask of rows 2^stride bits apart from the column
+// b.w = x0 | y0 << 16. Without it b.w = x0 | x1 << 16 and c.w = y0 | y1 << 16 are the box of the
+// columns it may cover, inside the grid, and the raster finds the covered ones.
 layout(set = 0, binding = 0) uniform isamplerBuffer triangles;
 layout(set = 0, binding = 1) uniform usamplerBuffer work_items; // 2 texels per item: triangle, tile x | tile y << 16
+const uint MASKED = 1u << 16;
 // The next free key slot of each bucket.
 layout(std430, set = 0, binding = 2) buffer BucketCursors { uint bucket_cursor[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Keys { uint keys[]; };
@@ -50,11 +54,49 @@ void main() {
     ivec4 b4 = texelFetch(triangles, int(3u * triangle + 1u));
     ivec4 c4 = texelFetch(triangles, int(3u * triangle + 2u));
     ivec3 b = b4.xyz, c = c4.xyz;
-    uint frame_slot = uint(a4.w);
+    uint frame_slot = uint(a4.w) & 0xffu;
     int64_t area = edge_function(a.xy, b.xy, c.xy);
     if (area == 0) return;  // seen edge-on from above: the vertical ray never crosses it
     uint upward = area > 0 ? 0u : 1u;  // a downward-facing face below a point adds +1 to its winding
     if (area < 0) { ivec3 t = b; b = c; c = t; area = -area; }
+    int64_t half_voxel = SUBVOXEL / 2;
+    int64_t layer_divisor = SUBVOXEL * area;
+    float layer_reciprocal = 1.0 / float(layer_divisor);
+
+    if ((uint(a4.w) & MASKED) != 0u) {
+        // The covered columns are the mask's bits in this tile: bit (dy << stride) + dx is column
+        // (x0 + dx, y0 + dy). The crossing numerator (below) is stepped from the mask's corner.
+        int stride = int(uint(a4.w) >> 8) & 3;
+        int x0 = b4.w & 0xffff, y0 = int(uint(b4.w) >> 16);
+        int dx_first = max(tile_x - x0, 0), dx_last = min(tile_x + TILE - 1 - x0, (1 << stride) - 1);
+        int dy_first = max(tile_y - y0, 0), dy_last = min(tile_y + TILE - 1 - y0, 31);
+        uint row_columns = ((2u << dx_last) - 1u) & ~((1u << dx_first) - 1u);
+        uint row_starts = stride == 0 ? 0xffffffffu : stride == 1 ? 0x55555555u : stride == 2 ? 0x11111111u : 0x01010101u;
+        uint64_t rows = ((uint64_t(1) << min((dy_last + 1) << stride, 63)) - 1ul) & ~((uint64_t(1) << min(dy_first << stride, 63)) - 1ul);
+        uint pending = uint(c4.w) & uint(rows) & (row_starts * row_columns);
+        ivec2 corner = ivec2(x0 * int(SUBVOXEL) + int(half_voxel), y0 * int(SUBVOXEL) + int(half_voxel));
+        int64_t corner_numerator = edge_function(b.xy, c.xy, corner) * int64_t(a.z) + edge_function(c.xy, a.xy, corner) * int64_t(b.z) +
+                                   edge_function(a.xy, b.xy, corner) * int64_t(c.z) - half_voxel * area;
+        // As below: per unit of x, -(v.y - u.y) * S of each edge function; per unit of y, (v.x - u.x) * S.
+        int64_t column_step = int64_t(-(c.y - b.y) * int(SUBVOXEL)) * a.z + int64_t(-(a.y - c.y) * int(SUBVOXEL)) * b.z +
+                              int64_t(-(b.y - a.y) * int(SUBVOXEL)) * c.z;
+        int64_t row_step = int64_t((c.x - b.x) * int(SUBVOXEL)) * a.z + int64_t((a.x - c.x) * int(SUBVOXEL)) * b.z +
+                           int64_t((b.x - a.x) * int(SUBVOXEL)) * c.z;
+        uint column_mask = (1u << uint(stride)) - 1u;
+        for (; pending != 0u; pending &= pending - 1u) {
+            int bit = findLSB(pending);
+            int dx = bit & int(column_mask), dy = bit >> stride;
+            int64_t numerator = corner_numerator + int64_t(dx) * column_step + int64_t(dy) * row_step;
+            int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - z_begin;
+            // Above this slab: affects no voxel here. Below it: counts from its first layer.
+            if (layer < slab_layers) {
+                uint bucket = frame_slot * columns + uint(y0 + dy) * nx + uint(x0 + dx);
+                uint slot = atomicAdd(bucket_cursor[bucket], 1u);
+                keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
+            }
+        }
+        return;
+    }
 
     int x_first = max(b4.w & 0xffff, tile_x);
     int x_last = min(int(uint(b4.w) >> 16), tile_x + TILE - 1);
@@ -64,7 +106,6 @@ void main() {
     // The edge functions and the crossing numerator are linear in the sample point, so they are
     // evaluated exactly once at the first column and then stepped by integer additions (the same
     // integers fixed_raster.hpp computes directly).
-    int64_t half_voxel = SUBVOXEL / 2;
     ivec2 p0 = ivec2(x_first * int(SUBVOXEL) + int(half_voxel), y_first * int(SUBVOXEL) + int(half_voxel));
     int64_t row_wa = edge_function(b.xy, c.xy, p0);
     int64_t row_wb = edge_function(c.xy, a.xy, p0);
@@ -79,8 +120,6 @@ void main() {
     int64_t row_numerator = row_wa * int64_t(a.z) + row_wb * int64_t(b.z) + row_wc * int64_t(c.z) - half_voxel * area;
     int64_t step_x_numerator = int64_t(step_x_wa) * a.z + int64_t(step_x_wb) * b.z + int64_t(step_x_wc) * c.z;
     int64_t step_y_numerator = int64_t(step_y_wa) * a.z + int64_t(step_y_wb) * b.z + int64_t(step_y_wc) * c.z;
-    int64_t layer_divisor = SUBVOXEL * area;
-    float layer_reciprocal = 1.0 / float(layer_divisor);
     // The coverage test runs in 32 bits: each edge value at the first column, clamped to +-2^30,
     // keeps its sign over the tile (at most 2 (TILE - 1) steps of below 2^23 each: under 2^28 for
     // TILE <= 16), and the top-left rule is folded in: a column is covered when all three are >= 0.

@@ -19,10 +19,12 @@ namespace amhv::gpu {
 namespace {
 
 struct GpuTriangle {
-    // xyz fixed point; a[3] = frame slot in the batch, b[3] and c[3] = its column box (x0 | x1 << 16,
-    // y0 | y1 << 16)
+    // xyz fixed point; a[3] = frame slot in the batch | kMaskedTriangle | mask stride (log2) << 8.
+    // With a mask: b[3] = the mask's corner column x0 | y0 << 16, c[3] = the mask. Else b[3] and
+    // c[3] = its column box x0 | x1 << 16, y0 | y1 << 16.
     std::int32_t a[4], b[4], c[4];
 };
+constexpr std::int32_t kMaskedTriangle = 1 << 16;
 static_assert(sizeof(GpuTriangle) == 48);
 
 struct RasterParams {
@@ -59,15 +61,19 @@ struct Crossable {
 constexpr std::uint8_t kSpans = 0xff;
 
 // The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
-// go out in classes of equally many covered columns (up to kItemClasses - 1). A triangle in one
+// go out in classes of equally many covered columns (up to kClassColumns - 1), and triangles with a
+// coverage mask apart from those with spans (the raster skips the coverage test for the first, and
+// a subgroup that mixes them runs both ways). A triangle in one
 // tile (most) is classed by its covered columns; one over several tiles by those in each tile,
 // counted from its mask or its spans when it is planned (a misplaced item costs its subgroup the
 // rounds of all its columns: lanes took slots in 53% of the rounds in dispatch order, 83% with the
 // items over several tiles classed by their share of the box's area, 98% with them counted).
-constexpr std::uint32_t kItemClasses = 64;
-// The class of a work item with `covered` columns: the planner counts each class's items by it and
-// the gathering places them by it, so the two must agree.
-inline std::uint32_t item_class(std::uint32_t covered) { return std::min(covered, kItemClasses - 1); }
+constexpr std::uint32_t kClassColumns = 64, kItemClasses = 2 * kClassColumns;
+// The class of a work item of a crossable with `covered` columns: the planner counts each class's
+// items by it and the gathering places them by it, so the two must agree.
+inline std::uint32_t item_class(const Crossable& crossable, std::uint32_t covered) {
+    return std::min(covered, kClassColumns - 1) + (crossable.mask_stride == kSpans ? kClassColumns : 0);
+}
 
 // Calls visit(tile_x, tile_y, first_x, last_x, first_y, last_y) for each tile a crossable's box
 // touches, with the box's part of it, row by row.
@@ -230,11 +236,11 @@ template <int Tile, bool Masks>
     plan.rows.resize(rows_used);
     for (const Crossable& crossable : plan.crossables) {
         if (in_one_tile<Tile>(crossable)) {
-            ++plan.class_items[item_class(crossable.covered)];
+            ++plan.class_items[item_class(crossable, crossable.covered)];
             continue;
         }
         for_each_tile<Tile>(crossable, [&](int, int, int first_x, int last_x, int first_y, int last_y) {
-            const std::uint32_t tile_class = item_class(covered_in(crossable, plan.rows.data(), first_x, last_x, first_y, last_y));
+            const std::uint32_t tile_class = item_class(crossable, covered_in(crossable, plan.rows.data(), first_x, last_x, first_y, last_y));
             ++plan.class_items[tile_class];
             plan.tile_classes.push_back(std::uint8_t(tile_class));
         });
@@ -491,9 +497,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
                 const std::size_t x0 = crossable.x0, x1 = crossable.x1, y0 = crossable.y0, y1 = crossable.y1;
-                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)},
-                                       {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (x1 << 16))},
-                                       {t[2].x, t[2].y, t[2].z, std::int32_t(y0 | (y1 << 16))}};
+                if (crossable.mask_stride != kSpans)
+                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
+                                           {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (y0 << 16))},
+                                           {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
+                else
+                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)},
+                                           {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (x1 << 16))},
+                                           {t[2].x, t[2].y, t[2].z, std::int32_t(y0 | (y1 << 16))}};
                 for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
                     ++edges[std::size_t(y) * room_row + std::size_t(first)];
                     --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
@@ -504,7 +515,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     *item++ = std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16);
                 };
                 if (in_one_tile<kTile>(crossable))
-                    add_item(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable.covered));
+                    add_item(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable, crossable.covered));
                 else
                     for_each_tile<kTile>(crossable, [&](int tile_x, int tile_y, int, int, int, int) { add_item(tile_x, tile_y, *next_class++); });
                 ++index;
