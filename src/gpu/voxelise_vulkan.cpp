@@ -20,11 +20,17 @@ namespace {
 
 struct GpuTriangle {
     // xyz fixed point; a[3] = frame slot in the batch | kMaskedTriangle | mask stride (log2) << 8.
-    // With a mask: b[3] = the mask's corner column x0 | y0 << 16, c[3] = the mask. Else b[3] and
-    // c[3] = its column box x0 | x1 << 16, y0 | y1 << 16.
+    // With a mask: b[3] = the mask's corner column x0 | y0 << 16, c[3] = the mask. Else 0.
     std::int32_t a[4], b[4], c[4];
 };
 constexpr std::int32_t kMaskedTriangle = 1 << 16;
+// A triangle with spans goes to the raster as runs: a row's span, in pieces of up to kRunColumns
+// columns, each a work item (its second word: first column | row << 11 | (columns - 1) << 22).
+constexpr int kRunColumns = 64;
+static_assert(kMaxGridAxis <= 2048 && kRunColumns <= 1024, "a run fits one word");
+inline std::uint32_t run_word(int y, int first, int columns) {
+    return std::uint32_t(first) | (std::uint32_t(y) << 11) | (std::uint32_t(columns - 1) << 22);
+}
 static_assert(sizeof(GpuTriangle) == 48);
 
 struct RasterParams {
@@ -62,8 +68,8 @@ constexpr std::uint8_t kSpans = 0xff;
 
 // The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
 // go out in classes of equally many covered columns (up to kClassColumns - 1), and triangles with a
-// coverage mask apart from those with spans (the raster skips the coverage test for the first, and
-// a subgroup that mixes them runs both ways). A triangle in one
+// coverage mask apart from the runs of those with spans (a subgroup that mixes them runs both ways).
+// A run is classed by its columns; a masked triangle in one
 // tile (most) is classed by its covered columns; one over several tiles by those in each tile,
 // counted from its mask or its spans when it is planned (a misplaced item costs its subgroup the
 // rounds of all its columns: lanes took slots in 53% of the rounds in dispatch order, 83% with the
@@ -73,6 +79,12 @@ constexpr std::uint32_t kClassColumns = 64, kItemClasses = 2 * kClassColumns;
 // items by it and the gathering places them by it, so the two must agree.
 inline std::uint32_t item_class(const Crossable& crossable, std::uint32_t covered) {
     return std::min(covered, kClassColumns - 1) + (crossable.mask_stride == kSpans ? kClassColumns : 0);
+}
+
+// The work items of a row span [first, last] of a crossable with spans: visit(first column, columns).
+template <class Visit>
+void for_each_run(int first, int last, Visit&& visit) {
+    for (int x = first; x <= last; x += kRunColumns) visit(x, std::min(kRunColumns, last - x + 1));
 }
 
 // Calls visit(tile_x, tile_y, first_x, last_x, first_y, last_y) for each tile a crossable's box
@@ -90,30 +102,22 @@ bool in_one_tile(const Crossable& c) {
     return c.x0 / Tile == c.x1 / Tile && c.y0 / Tile == c.y1 / Tile;
 }
 
-// The columns a crossable covers (or its spans hold) in a part of its box.
-inline std::uint32_t covered_in(const Crossable& c, const RowSpan* spans, int first_x, int last_x, int first_y, int last_y) {
-    if (c.mask_stride != kSpans) {
-        const int stride = c.mask_stride;
-        const std::uint64_t rows =
-            ((std::uint64_t(1) << ((last_y - c.y0 + 1) << stride)) - 1) & ~((std::uint64_t(1) << ((first_y - c.y0) << stride)) - 1);
-        const std::uint32_t row_columns = ((2u << (last_x - c.x0)) - 1u) & ~((1u << (first_x - c.x0)) - 1u);
-        return std::uint32_t(std::popcount(c.coverage & std::uint32_t(rows) & (fixed::mask_row_starts(stride) * row_columns)));
-    }
-    std::uint32_t covered = 0;
-    for (int y = first_y; y <= last_y; ++y) {
-        const RowSpan& span = spans[c.coverage + std::uint32_t(y - c.y0)];
-        covered += std::uint32_t(std::max(0, std::min<int>(span.last, last_x) - std::max<int>(span.first, first_x) + 1));
-    }
-    return covered;
+// The columns a crossable with a mask covers in a part of its box.
+inline std::uint32_t covered_in(const Crossable& c, int first_x, int last_x, int first_y, int last_y) {
+    const int stride = c.mask_stride;
+    const std::uint64_t rows =
+        ((std::uint64_t(1) << ((last_y - c.y0 + 1) << stride)) - 1) & ~((std::uint64_t(1) << ((first_y - c.y0) << stride)) - 1);
+    const std::uint32_t row_columns = ((2u << (last_x - c.x0)) - 1u) & ~((1u << (first_x - c.x0)) - 1u);
+    return std::uint32_t(std::popcount(c.coverage & std::uint32_t(rows) & (fixed::mask_row_starts(stride) * row_columns)));
 }
 
 struct FramePlan {
     std::vector<Crossable, UninitialisedAllocator<Crossable>> crossables;
     std::vector<RowSpan, UninitialisedAllocator<RowSpan>> rows;
     std::uint64_t keys = 0;   // the masks' and spans' columns: an upper bound on the frame's crossings
-    std::uint64_t items = 0;  // raster work items: the tiles its boxes touch
+    std::uint64_t items = 0;  // raster work items: the tiles its masks' boxes touch and its runs
     std::array<std::uint32_t, kItemClasses> class_items{};  // work items per class
-    // The classes of the items of crossables over several tiles, in order (for_each_tile's).
+    // The classes of the items of masked crossables over several tiles, in order (for_each_tile's).
     std::vector<std::uint8_t, UninitialisedAllocator<std::uint8_t>> tile_classes;
 
     // Empty, with the lists' capacity kept for the next frame.
@@ -235,12 +239,18 @@ template <int Tile, bool Masks>
     plan.crossables.resize(crossables);
     plan.rows.resize(rows_used);
     for (const Crossable& crossable : plan.crossables) {
+        if (crossable.mask_stride == kSpans) {
+            for_each_span(crossable, plan.rows, [&](int, int first, int last) {
+                for_each_run(first, last, [&](int, int columns) { ++plan.class_items[item_class(crossable, std::uint32_t(columns))]; });
+            });
+            continue;
+        }
         if (in_one_tile<Tile>(crossable)) {
             ++plan.class_items[item_class(crossable, crossable.covered)];
             continue;
         }
         for_each_tile<Tile>(crossable, [&](int, int, int first_x, int last_x, int first_y, int last_y) {
-            const std::uint32_t tile_class = item_class(crossable, covered_in(crossable, plan.rows.data(), first_x, last_x, first_y, last_y));
+            const std::uint32_t tile_class = item_class(crossable, covered_in(crossable, first_x, last_x, first_y, last_y));
             ++plan.class_items[tile_class];
             plan.tile_classes.push_back(std::uint8_t(tile_class));
         });
@@ -496,28 +506,35 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             const std::uint8_t* next_class = plan.tile_classes.data();  // of the items over several tiles
             for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
-                const std::size_t x0 = crossable.x0, x1 = crossable.x1, y0 = crossable.y0, y1 = crossable.y1;
-                if (crossable.mask_stride != kSpans)
-                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
-                                           {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (y0 << 16))},
-                                           {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
-                else
-                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)},
-                                           {t[1].x, t[1].y, t[1].z, std::int32_t(x0 | (x1 << 16))},
-                                           {t[2].x, t[2].y, t[2].z, std::int32_t(y0 | (y1 << 16))}};
-                for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
-                    ++edges[std::size_t(y) * room_row + std::size_t(first)];
-                    --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
-                });
-                auto add_item = [&](int tile_x, int tile_y, std::uint32_t its_class) {
+                auto add_item = [&](std::uint32_t second_word, std::uint32_t its_class) {
                     std::uint32_t*& item = class_item[its_class];
                     *item++ = index;
-                    *item++ = std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16);
+                    *item++ = second_word;
+                };
+                auto add_room = [&](int y, int first, int last) {
+                    ++edges[std::size_t(y) * room_row + std::size_t(first)];
+                    --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
+                };
+                if (crossable.mask_stride == kSpans) {
+                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
+                    for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
+                        add_room(y, first, last);
+                        for_each_run(first, last, [&](int x, int run) { add_item(run_word(y, x, run), item_class(crossable, std::uint32_t(run))); });
+                    });
+                    ++index;
+                    continue;
+                }
+                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
+                                       {t[1].x, t[1].y, t[1].z, std::int32_t(crossable.x0 | (crossable.y0 << 16))},
+                                       {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
+                for_each_span(crossable, plan.rows, add_room);
+                auto add_tile = [&](int tile_x, int tile_y, std::uint32_t its_class) {
+                    add_item(std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16), its_class);
                 };
                 if (in_one_tile<kTile>(crossable))
-                    add_item(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable, crossable.covered));
+                    add_tile(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable, crossable.covered));
                 else
-                    for_each_tile<kTile>(crossable, [&](int tile_x, int tile_y, int, int, int, int) { add_item(tile_x, tile_y, *next_class++); });
+                    for_each_tile<kTile>(crossable, [&](int tile_x, int tile_y, int, int, int, int) { add_tile(tile_x, tile_y, *next_class++); });
                 ++index;
             }
         });
