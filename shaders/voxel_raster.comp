@@ -1,7 +1,6 @@
 #version 450
-// Pass 1 of the solid voxelisation. Every invocation takes one work item of a triangle: a tile of
-// columns for a triangle whose covered columns come as a mask, or a run of one row's columns for a
-// larger one. A bucket is one (column, frame slot): index slot * columns + column. Each crossing's
+// Pass 1 of the solid voxelisation. Every invocation takes one work item of a triangle: the whole
+// triangle when its covered columns come as a mask, or a run of one row's columns of a larger one. A bucket is one (column, frame slot): index slot * columns + column. Each crossing's
 // key (layer << 1 | upward) goes into its bucket's next slot, where layer is the first voxel
 // centre above the crossing, relative to the slab (crossings below the slab count from its first
 // layer; those above it affect no voxel of the slab and are left out). The host gave every bucket
@@ -12,7 +11,6 @@
 #include "fixed_raster.glsl"
 
 layout(local_size_x_id = 0) in;
-layout(constant_id = 1) const int TILE = 16;
 const int RUN_COLUMNS = 64;  // voxelise_vulkan.cpp's kRunColumns
 
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
@@ -22,8 +20,8 @@ const int RUN_COLUMNS = 64;  // voxelise_vulkan.cpp's kRunColumns
 // test (fixed::coverage_mask): c.w = a mask of rows 2^stride bits apart from the column
 // b.w = x0 | y0 << 16.
 layout(set = 0, binding = 0) uniform isamplerBuffer triangles;
-// 2 texels per item: the triangle, then with a mask its tile (tile x | tile y << 16), else its run
-// (first column | row << 11 | (columns - 1) << 22).
+// 2 texels per item: the triangle, then for a run (a triangle without a mask) first column |
+// row << 11 | (columns - 1) << 22.
 layout(set = 0, binding = 1) uniform usamplerBuffer work_items;
 const uint MASKED = 1u << 16;
 // The next free key slot of each bucket.
@@ -76,17 +74,10 @@ void main() {
     int64_t step_y_numerator = int64_t(step_y_wa) * a.z + int64_t(step_y_wb) * b.z + int64_t(step_y_wc) * c.z;
 
     if ((uint(a4.w) & MASKED) != 0u) {
-        // The covered columns are the mask's bits in this tile: bit (dy << stride) + dx is column
-        // (x0 + dx, y0 + dy).
-        int tile_x = int(place & 0xffffu) * TILE, tile_y = int(place >> 16) * TILE;
+        // The covered columns are the mask's bits: bit (dy << stride) + dx is column (x0 + dx, y0 + dy).
         int stride = int(uint(a4.w) >> 8) & 3;
         int x0 = b4.w & 0xffff, y0 = int(uint(b4.w) >> 16);
-        int dx_first = max(tile_x - x0, 0), dx_last = min(tile_x + TILE - 1 - x0, (1 << stride) - 1);
-        int dy_first = max(tile_y - y0, 0), dy_last = min(tile_y + TILE - 1 - y0, 31);
-        uint row_columns = ((2u << dx_last) - 1u) & ~((1u << dx_first) - 1u);
-        uint row_starts = stride == 0 ? 0xffffffffu : stride == 1 ? 0x55555555u : stride == 2 ? 0x11111111u : 0x01010101u;
-        uint64_t rows = ((uint64_t(1) << min((dy_last + 1) << stride, 63)) - 1ul) & ~((uint64_t(1) << min(dy_first << stride, 63)) - 1ul);
-        uint pending = uint(c4.w) & uint(rows) & (row_starts * row_columns);
+        uint pending = uint(c4.w);
         ivec2 corner = ivec2(x0 * int(SUBVOXEL) + int(half_voxel), y0 * int(SUBVOXEL) + int(half_voxel));
         int64_t corner_numerator = edge_function(b.xy, c.xy, corner) * int64_t(a.z) + edge_function(c.xy, a.xy, corner) * int64_t(b.z) +
                                    edge_function(a.xy, b.xy, corner) * int64_t(c.z) - half_voxel * area;

@@ -67,13 +67,9 @@ struct Crossable {
 constexpr std::uint8_t kSpans = 0xff;
 
 // The raster's slot loop runs as long as its subgroup's most covered lane, so a frame's work items
-// go out in classes of equally many covered columns (up to kClassColumns - 1), and triangles with a
-// coverage mask apart from the runs of those with spans (a subgroup that mixes them runs both ways).
-// A run is classed by its columns; a masked triangle in one
-// tile (most) is classed by its covered columns; one over several tiles by those in each tile,
-// counted from its mask or its spans when it is planned (a misplaced item costs its subgroup the
-// rounds of all its columns: lanes took slots in 53% of the rounds in dispatch order, 83% with the
-// items over several tiles classed by their share of the box's area, 98% with them counted).
+// go out in classes of equally many covered columns (up to kClassColumns - 1): a masked triangle's,
+// or a run's columns. Masked triangles go apart from the runs of those with spans (a subgroup that
+// mixes them runs both ways).
 constexpr std::uint32_t kClassColumns = 64, kItemClasses = 2 * kClassColumns;
 // The class of a work item of a crossable with `covered` columns: the planner counts each class's
 // items by it and the gathering places them by it, so the two must agree.
@@ -87,44 +83,17 @@ void for_each_run(int first, int last, Visit&& visit) {
     for (int x = first; x <= last; x += kRunColumns) visit(x, std::min(kRunColumns, last - x + 1));
 }
 
-// Calls visit(tile_x, tile_y, first_x, last_x, first_y, last_y) for each tile a crossable's box
-// touches, with the box's part of it, row by row.
-template <int Tile, class Visit>
-void for_each_tile(const Crossable& c, Visit&& visit) {
-    for (int ty = c.y0 / Tile; ty <= c.y1 / Tile; ++ty)
-        for (int tx = c.x0 / Tile; tx <= c.x1 / Tile; ++tx)
-            visit(tx, ty, std::max<int>(c.x0, tx * Tile), std::min<int>(c.x1, tx * Tile + Tile - 1), std::max<int>(c.y0, ty * Tile),
-                  std::min<int>(c.y1, ty * Tile + Tile - 1));
-}
-
-template <int Tile>
-bool in_one_tile(const Crossable& c) {
-    return c.x0 / Tile == c.x1 / Tile && c.y0 / Tile == c.y1 / Tile;
-}
-
-// The columns a crossable with a mask covers in a part of its box.
-inline std::uint32_t covered_in(const Crossable& c, int first_x, int last_x, int first_y, int last_y) {
-    const int stride = c.mask_stride;
-    const std::uint64_t rows =
-        ((std::uint64_t(1) << ((last_y - c.y0 + 1) << stride)) - 1) & ~((std::uint64_t(1) << ((first_y - c.y0) << stride)) - 1);
-    const std::uint32_t row_columns = ((2u << (last_x - c.x0)) - 1u) & ~((1u << (first_x - c.x0)) - 1u);
-    return std::uint32_t(std::popcount(c.coverage & std::uint32_t(rows) & (fixed::mask_row_starts(stride) * row_columns)));
-}
-
 struct FramePlan {
     std::vector<Crossable, UninitialisedAllocator<Crossable>> crossables;
     std::vector<RowSpan, UninitialisedAllocator<RowSpan>> rows;
     std::uint64_t keys = 0;   // the masks' and spans' columns: an upper bound on the frame's crossings
-    std::uint64_t items = 0;  // raster work items: the tiles its masks' boxes touch and its runs
+    std::uint64_t items = 0;  // raster work items: one per masked crossable, and the runs
     std::array<std::uint32_t, kItemClasses> class_items{};  // work items per class
-    // The classes of the items of masked crossables over several tiles, in order (for_each_tile's).
-    std::vector<std::uint8_t, UninitialisedAllocator<std::uint8_t>> tile_classes;
 
     // Empty, with the lists' capacity kept for the next frame.
     void clear() {
         crossables.clear();
         rows.clear();
-        tile_classes.clear();
         keys = items = 0;
         class_items = {};
     }
@@ -149,10 +118,10 @@ void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedA
         if (span->first <= span->last) visit(y, int(span->first), int(span->last));
 }
 
-// `Tile`: the raster's tile side (a constant, so that the divisions below are shifts). `Masks`: small
+// `Masks`: small
 // triangles get coverage masks (only in plan_frame_with_masks, which is built for AVX2). The plan's
 // lists keep their capacity from an earlier call.
-template <int Tile, bool Masks>
+template <bool Masks>
 [[gnu::always_inline]] inline void plan_frame(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
     plan.clear();
     // Written by index and trimmed at the end: a triangle's place is taken whether or not it is kept,
@@ -245,24 +214,16 @@ template <int Tile, bool Masks>
             });
             continue;
         }
-        if (in_one_tile<Tile>(crossable)) {
-            ++plan.class_items[item_class(crossable, crossable.covered)];
-            continue;
-        }
-        for_each_tile<Tile>(crossable, [&](int, int, int first_x, int last_x, int first_y, int last_y) {
-            const std::uint32_t tile_class = item_class(crossable, covered_in(crossable, first_x, last_x, first_y, last_y));
-            ++plan.class_items[tile_class];
-            plan.tile_classes.push_back(std::uint8_t(tile_class));
-        });
+        ++plan.class_items[item_class(crossable, crossable.covered)];
     }
     for (const std::uint32_t items : plan.class_items) plan.items += items;
 }
 
 AMHV_TARGET_AVX2 void plan_frame_with_masks(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
-    plan_frame<VulkanVoxeliser::kTile, true>(frame, nx, ny, plan);
+    plan_frame<true>(frame, nx, ny, plan);
 }
 void plan_frame_with_spans(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
-    plan_frame<VulkanVoxeliser::kTile, false>(frame, nx, ny, plan);
+    plan_frame<false>(frame, nx, ny, plan);
 }
 
 // voxel_columns.comp's bindings: keys, bucket starts, bucket ends, overflow, flips, mask, keys
@@ -282,7 +243,7 @@ struct VulkanVoxeliser::HostScratch {
     std::uint64_t bytes() const {
         std::uint64_t total = room_edges.capacity() * sizeof(std::int32_t);
         for (const FramePlan& plan : frame_plans)
-            total += plan.crossables.capacity() * sizeof(Crossable) + plan.rows.capacity() * sizeof(RowSpan) + plan.tile_classes.capacity();
+            total += plan.crossables.capacity() * sizeof(Crossable) + plan.rows.capacity() * sizeof(RowSpan);
         return total;
     }
 };
@@ -293,7 +254,7 @@ VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
       raster_(context, voxel_raster_spv, {Binding::Texels128, Binding::Texels32, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
-              {kWorkgroup, kTile}),
+              {kWorkgroup}),
       flip_small_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 0u}),
       flip_medium_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 4u}),
       flip_large_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 1u}),
@@ -460,7 +421,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // before the call's first batch (whose flips may hold anything) and where the device clears them.
     std::size_t dirty_column_flips = 0;
 
-    // Host side of a batch: its triangles, one work item per (triangle, tile its box touches), and
+    // Host side of a batch: its triangles, one work item per masked triangle and per run, and
     // each bucket's stretch of the key list: a bucket (column, frame) gets room for one key per
     // crossable of that frame whose mask or row span holds the column, an upper bound on its
     // crossings, so the raster fills the buckets in one pass (each crossing takes the next slot of
@@ -469,7 +430,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::size_t room_row = std::size_t(nx + 1), room_edges_per_frame = room_row * std::size_t(ny);
     std::vector<std::int32_t>& room_edges = host_->room_edges;
     std::vector<std::uint32_t> slot_base;
-    // Triangles and work items (pairs: triangle, tile x | tile y << 16) go straight into the mapped
+    // Triangles and work items (pairs: triangle, 0 or its run_word) go straight into the mapped
     // buffers, frame by frame on the host's threads: the planning counts give every frame its place.
     struct Gathered {
         std::uint32_t triangles = 0, items = 0;
@@ -503,7 +464,6 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                 class_item[c] = next_item;
                 next_item += 2 * std::size_t(plan.class_items[c]);
             }
-            const std::uint8_t* next_class = plan.tile_classes.data();  // of the items over several tiles
             for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
                 auto add_item = [&](std::uint32_t second_word, std::uint32_t its_class) {
@@ -528,13 +488,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                                        {t[1].x, t[1].y, t[1].z, std::int32_t(crossable.x0 | (crossable.y0 << 16))},
                                        {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
                 for_each_span(crossable, plan.rows, add_room);
-                auto add_tile = [&](int tile_x, int tile_y, std::uint32_t its_class) {
-                    add_item(std::uint32_t(tile_x) | (std::uint32_t(tile_y) << 16), its_class);
-                };
-                if (in_one_tile<kTile>(crossable))
-                    add_tile(crossable.x0 / kTile, crossable.y0 / kTile, item_class(crossable, crossable.covered));
-                else
-                    for_each_tile<kTile>(crossable, [&](int tile_x, int tile_y, int, int, int, int) { add_tile(tile_x, tile_y, *next_class++); });
+                add_item(0, item_class(crossable, crossable.covered));
                 ++index;
             }
         });

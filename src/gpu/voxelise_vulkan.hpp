@@ -60,7 +60,6 @@ public:
     };
     const Plan& last_plan() const { return plan_; }
 
-    static constexpr int kTile = 16;            // columns per tile side: <= 256 column tests per raster invocation
     static constexpr int kWorkgroup = 64;
     static constexpr std::uint32_t kLargeKeys = 32;    // voxel_columns.comp's LARGE_KEYS
     static constexpr std::uint64_t kKeyPadding = kLargeKeys;
