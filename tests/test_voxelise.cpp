@@ -370,9 +370,13 @@ TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
     }
     const auto large_input = prepare_voxelisation(sequence_of(large), 0.006);
     const auto small_input = prepare_voxelisation(sequence_of(small), 0.004);
+    // The same frames backwards: the same grid, other flips in every batch. A call after one on the
+    // same grid clears only the flips the last one left.
+    const auto reversed_input = prepare_voxelisation(sequence_of({large.rbegin(), large.rend()}), 0.006);
+    ASSERT_EQ(reversed_input.grid.dims, large_input.grid.dims);
     ReferenceVoxeliser reference;
     gpu::VulkanVoxeliser vulkan(test::context());
-    for (const auto* input : {&large_input, &small_input, &large_input, &small_input}) {
+    for (const auto* input : {&large_input, &reversed_input, &small_input, &small_input, &large_input, &large_input, &reversed_input}) {
         const Both both{voxelise(*input, reference), voxelise(*input, vulkan), vulkan.last_plan()};
         test::expect_no_validation_messages();
         expect_identical(both);

@@ -394,7 +394,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // batch, the host clears only the columns the batch before flipped (on its threads; lavapipe
     // clears a buffer on one). Elsewhere they stay in device memory and are cleared by the device.
     const bool host_clears_flips = device.shares_host_memory();
-    ensure_capacity(context_, b.toggles, slab_bytes, host_clears_flips ? Buffer::Memory::Host : Buffer::Memory::Device);
+    const Buffer::Memory flips_memory = host_clears_flips ? Buffer::Memory::Host : Buffer::Memory::Device;
+    // The flips the last call left, if the buffers that say where they are stay (see flips_left_).
+    auto kept = [](const std::unique_ptr<Buffer>& buffer, std::uint64_t bytes, Buffer::Memory memory) {
+        return buffer && buffer->size() >= bytes && buffer->memory() == memory;
+    };
+    const FlipsLeft flips_left = std::exchange(flips_left_, FlipsLeft{});  // unknown until this call ends
+    const bool flips_left_kept = host_clears_flips && flips_left.layers != 0 && flips_left.columns == columns &&
+                                 kept(b.toggles, slab_bytes, flips_memory) && kept(b.column_frames, layer_bytes, Buffer::Memory::Host);
+    ensure_capacity(context_, b.toggles, slab_bytes, flips_memory);
     // One start more than there are buckets: the end of the last one, so every column's room is
     // the difference of two starts.
     ensure_capacity(context_, b.bucket_start, bucket_bytes + 4, Buffer::Memory::Host);
@@ -418,8 +426,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
     // The flips per column ([column][z]) of the slab of the batch before, which the host clears; 0
-    // before the call's first batch (whose flips may hold anything) and where the device clears them.
-    std::size_t dirty_column_flips = 0;
+    // where the device clears them, and before the call's first batch unless the last call's are
+    // known (then they are the columns with room in its last batch, as column_frames still says).
+    std::size_t dirty_column_flips = flips_left_kept ? flips_left.layers : 0;
 
     // Host side of a batch: its triangles, one work item per masked triangle and per run, and
     // each bucket's stretch of the key list: a bucket (column, frame) gets room for one key per
@@ -631,6 +640,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             std::memcpy(destination, mask.mapped<std::uint32_t>().data(), destination_bytes);
         }
     }
+    flips_left_ = {dirty_column_flips, columns};
 }
 
 }  // namespace amhv::gpu
