@@ -15,18 +15,16 @@ const int RUN_COLUMNS = 64;  // voxelise_vulkan.cpp's kRunColumns
 
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
 // storage-buffer load runs lane by lane.
-// 3 texels per triangle: a, b, c, xyz fixed point; a.w = frame slot | MASKED | mask stride << 8.
-// A triangle with MASKED comes with its covered columns, as the host found them by the same exact
-// test (fixed::coverage_mask): c.w = a mask of rows 2^stride bits apart from the column
-// b.w = x0 | y0 << 16.
-layout(set = 0, binding = 0) uniform isamplerBuffer triangles;
-// 2 texels per item: the triangle, then for a run (a triangle without a mask) first column |
-// row << 11 | (columns - 1) << 22.
-layout(set = 0, binding = 1) uniform usamplerBuffer work_items;
+// 3 texels per work item, its triangle a, b, c: xyz fixed point; a.w = frame slot | MASKED | mask
+// stride << 8. A triangle with MASKED comes whole with its covered columns, as the host found them
+// by the same exact test (fixed::coverage_mask): c.w = a mask of rows 2^stride bits apart from the
+// column b.w = x0 | y0 << 16. Else the item is one run of it: c.w = first column | row << 11 |
+// (columns - 1) << 22.
+layout(set = 0, binding = 0) uniform isamplerBuffer work_items;
 const uint MASKED = 1u << 16;
 // The next free key slot of each bucket.
-layout(std430, set = 0, binding = 2) buffer BucketCursors { uint bucket_cursor[]; };
-layout(std430, set = 0, binding = 3) writeonly buffer Keys { uint keys[]; };
+layout(std430, set = 0, binding = 1) buffer BucketCursors { uint bucket_cursor[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Keys { uint keys[]; };
 
 layout(push_constant) uniform Params {
     uint work_base;
@@ -43,13 +41,11 @@ void main() {
     // Read once here: on lavapipe a push-constant read inside the slot loop is a load per lane.
     const int64_t z_begin = int64_t(params.z_begin), slab_layers = int64_t(params.slab_layers);
     const uint nx = uint(params.nx), columns = uint(params.nx * params.ny);
-    uint triangle = texelFetch(work_items, int(2u * item_index)).x;
-    uint place = texelFetch(work_items, int(2u * item_index + 1u)).x;
-
-    ivec4 a4 = texelFetch(triangles, int(3u * triangle));
+    ivec4 a4 = texelFetch(work_items, int(3u * item_index));
     ivec3 a = a4.xyz;
-    ivec4 b4 = texelFetch(triangles, int(3u * triangle + 1u));
-    ivec4 c4 = texelFetch(triangles, int(3u * triangle + 2u));
+    ivec4 b4 = texelFetch(work_items, int(3u * item_index + 1u));
+    ivec4 c4 = texelFetch(work_items, int(3u * item_index + 2u));
+    uint place = uint(c4.w);
     ivec3 b = b4.xyz, c = c4.xyz;
     uint frame_slot = uint(a4.w) & 0xffu;
     int64_t area = edge_function(a.xy, b.xy, c.xy);

@@ -18,20 +18,23 @@ namespace amhv::gpu {
 
 namespace {
 
-struct GpuTriangle {
-    // xyz fixed point; a[3] = frame slot in the batch | kMaskedTriangle | mask stride (log2) << 8.
-    // With a mask: b[3] = the mask's corner column x0 | y0 << 16, c[3] = the mask. Else 0.
+// One raster work item: a triangle (xyz fixed point) with a[3] = frame slot in the batch |
+// kMaskedTriangle | mask stride (log2) << 8. With a mask, the whole triangle: b[3] = the mask's
+// corner column x0 | y0 << 16, c[3] = the mask. Else one run of it: c[3] = run_word(...). The
+// triangle travels with each item, so the raster reads its items in order (an index into a list of
+// triangles had every subgroup's lanes miss the caches apart: the items go in classes).
+struct GpuItem {
     std::int32_t a[4], b[4], c[4];
 };
+static_assert(sizeof(GpuItem) == 48);
 constexpr std::int32_t kMaskedTriangle = 1 << 16;
 // A triangle with spans goes to the raster as runs: a row's span, in pieces of up to kRunColumns
-// columns, each a work item (its second word: first column | row << 11 | (columns - 1) << 22).
+// columns, each a work item (first column | row << 11 | (columns - 1) << 22).
 constexpr int kRunColumns = 64;
 static_assert(kMaxGridAxis <= 2048 && kRunColumns <= 1024, "a run fits one word");
 inline std::uint32_t run_word(int y, int first, int columns) {
     return std::uint32_t(first) | (std::uint32_t(y) << 11) | (std::uint32_t(columns - 1) << 22);
 }
-static_assert(sizeof(GpuTriangle) == 48);
 
 struct RasterParams {
     std::uint32_t work_base, work_count;
@@ -253,7 +256,7 @@ VulkanVoxeliser::~VulkanVoxeliser() = default;
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
     : context_(context),
       options_(options),
-      raster_(context, voxel_raster_spv, {Binding::Texels128, Binding::Texels32, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
+      raster_(context, voxel_raster_spv, {Binding::Texels128, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
               {kWorkgroup}),
       flip_small_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 0u}),
       flip_medium_(context, voxel_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 4u}),
@@ -287,9 +290,8 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // The key list ends in kKeyPadding spare slots: the column pass fetches a small bucket's keys
     // as a whole register set, past the bucket's end.
     const std::uint64_t key_limit = budget / 4 - kKeyPadding;
-    // A batch's triangles (three 16-byte texels each) and work items (two 4-byte texels each) must
-    // also fit one buffer each.
-    const std::uint64_t triangle_limit = budget / sizeof(GpuTriangle), item_limit = budget / 8;
+    // A batch's work items (three 16-byte texels each) must also fit one buffer.
+    const std::uint64_t item_limit = budget / sizeof(GpuItem);
     // After the call, lists beyond kKeptBytes go back.
     struct ReleaseHost {
         HostScratch& host;
@@ -312,17 +314,15 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
         else
             plan_frame_with_spans(frame, nx, ny, plan);
     });
-    // A frame's triangles on the device: its crossable ones.
-    auto frame_triangles = [&](std::size_t f) { return std::uint64_t(frame_plans[f].crossables.size()); };
     auto frame_keys = [&](std::size_t f) { return frame_plans[f].keys; };
     auto frame_items = [&](std::size_t f) { return frame_plans[f].items; };
     for (int f = 0; f < frames; ++f) {
         const PreparedFrame& frame = input.frames[std::size_t(f)];
-        if (frame_triangles(std::size_t(f)) > triangle_limit || frame_items(std::size_t(f)) > item_limit)
-            throw Error(fmt::format("{}: the frame has {} triangles in {} work items, more than one {:.1f} MiB buffer holds "
-                                    "({} triangles, {} work items); use --backend cpu",
-                                    frame.source, frame_triangles(std::size_t(f)), frame_items(std::size_t(f)),
-                                    double(budget) / (1 << 20), triangle_limit, item_limit));
+        if (frame_items(std::size_t(f)) > item_limit)
+            throw Error(fmt::format("{}: the frame's {} triangles make {} work items, more than one {:.1f} MiB buffer holds "
+                                    "({}); use --backend cpu",
+                                    frame.source, frame_plans[std::size_t(f)].crossables.size(), frame_items(std::size_t(f)),
+                                    double(budget) / (1 << 20), item_limit));
         if (frame_keys(std::size_t(f)) > key_limit)
             throw Error(fmt::format("{}: the frame's triangles cover up to {} voxel columns, more crossings than one "
                                     "{:.1f} MiB storage buffer holds ({}); use a coarser voxel or --backend cpu",
@@ -351,17 +351,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // The batch starting at `first` (inside its word): its frames and their keys.
     struct Batch {
         int frames = 0;
-        std::uint64_t keys = 0, triangles = 0, items = 0;
+        std::uint64_t keys = 0, items = 0;
     };
     auto batch_at = [&](int first, int word_last) {
         Batch batch;
         while (first + batch.frames < word_last && batch.frames < frames_limit) {
             const auto next = std::size_t(first + batch.frames);
-            if (batch.frames > 0 && (batch.keys + frame_keys(next) > key_room || batch.triangles + frame_triangles(next) > triangle_limit ||
-                                     batch.items + frame_items(next) > item_limit))
-                break;
+            if (batch.frames > 0 && (batch.keys + frame_keys(next) > key_room || batch.items + frame_items(next) > item_limit)) break;
             batch.keys += frame_keys(next);
-            batch.triangles += frame_triangles(next);
             batch.items += frame_items(next);
             ++batch.frames;
         }
@@ -422,7 +419,6 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     Buffer& medium_buckets = *b.medium_buckets;
     std::uint32_t& most_column_crossings = overflow.mapped<std::uint32_t>()[0];
     most_column_crossings = 0;
-    std::unique_ptr<Buffer>& triangles = b.triangles;
     std::unique_ptr<Buffer>& work_items = b.work_items;
     Sequence sequence(context_);
     // The flips per column ([column][z]) of the slab of the batch before, which the host clears; 0
@@ -439,66 +435,54 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     const std::size_t room_row = std::size_t(nx + 1), room_edges_per_frame = room_row * std::size_t(ny);
     std::vector<std::int32_t>& room_edges = host_->room_edges;
     std::vector<std::uint32_t> slot_base;
-    // Triangles and work items (pairs: triangle, 0 or its run_word) go straight into the mapped
-    // buffers, frame by frame on the host's threads: the planning counts give every frame its place.
-    struct Gathered {
-        std::uint32_t triangles = 0, items = 0;
-    };
-    std::vector<Gathered> frame_base;
+    // Work items go straight into the mapped buffer, frame by frame on the host's threads: the
+    // planning counts give every frame its place, and every class its place in the frame.
+    std::vector<std::uint32_t> frame_base;
     auto gather = [&](int batch_first, int batch_frames) {
-        Gathered total;
+        std::uint32_t total = 0;
         frame_base.resize(std::size_t(batch_frames));
         for (int slot = 0; slot < batch_frames; ++slot) {
             frame_base[std::size_t(slot)] = total;
-            total.triangles += std::uint32_t(frame_triangles(std::size_t(batch_first + slot)));
-            total.items += std::uint32_t(frame_items(std::size_t(batch_first + slot)));
+            total += std::uint32_t(frame_items(std::size_t(batch_first + slot)));
         }
-        if (total.items == 0) return total;
+        if (total == 0) return total;
         room_edges.resize(room_edges_per_frame * std::size_t(batch_frames));  // each frame clears its own
-        ensure_host_capacity(context_, triangles, std::uint64_t(total.triangles) * sizeof(GpuTriangle));
-        ensure_host_capacity(context_, work_items, std::uint64_t(total.items) * 2 * sizeof(std::uint32_t));
-        GpuTriangle* triangle_out = triangles->mapped<GpuTriangle>().data();
-        std::uint32_t* item_out = work_items->mapped<std::uint32_t>().data();
+        ensure_host_capacity(context_, work_items, std::uint64_t(total) * sizeof(GpuItem));
+        GpuItem* item_out = work_items->mapped<GpuItem>().data();
         parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
             const PreparedFrame& frame = input.frames[std::size_t(batch_first) + slot];
             std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame;
             std::fill_n(edges, room_edges_per_frame, 0);
             if (!frame.closed) return;
-            std::uint32_t index = frame_base[slot].triangles;
             // Where each class's items begin.
-            std::array<std::uint32_t*, kItemClasses> class_item;
-            std::uint32_t* next_item = item_out + std::size_t(frame_base[slot].items) * 2;
+            std::array<GpuItem*, kItemClasses> class_item;
+            GpuItem* next_item = item_out + frame_base[slot];
             const FramePlan& plan = frame_plans[std::size_t(batch_first) + slot];
             for (std::size_t c = 0; c < kItemClasses; ++c) {
                 class_item[c] = next_item;
-                next_item += 2 * std::size_t(plan.class_items[c]);
+                next_item += plan.class_items[c];
             }
+            auto add_room = [&](int y, int first, int last) {
+                ++edges[std::size_t(y) * room_row + std::size_t(first)];
+                --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
+            };
             for (const Crossable& crossable : plan.crossables) {
                 const fixed::Triangle& t = frame.triangles[crossable.triangle];
-                auto add_item = [&](std::uint32_t second_word, std::uint32_t its_class) {
-                    std::uint32_t*& item = class_item[its_class];
-                    *item++ = index;
-                    *item++ = second_word;
-                };
-                auto add_room = [&](int y, int first, int last) {
-                    ++edges[std::size_t(y) * room_row + std::size_t(first)];
-                    --edges[std::size_t(y) * room_row + std::size_t(last) + 1];
-                };
                 if (crossable.mask_stride == kSpans) {
-                    triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, 0}};
                     for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
                         add_room(y, first, last);
-                        for_each_run(first, last, [&](int x, int run) { add_item(run_word(y, x, run), item_class(crossable, std::uint32_t(run))); });
+                        for_each_run(first, last, [&](int x, int run) {
+                            *class_item[item_class(crossable, std::uint32_t(run))]++ = {
+                                {t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, std::int32_t(run_word(y, x, run))}};
+                        });
                     });
-                    ++index;
                     continue;
                 }
-                triangle_out[index] = {{t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
-                                       {t[1].x, t[1].y, t[1].z, std::int32_t(crossable.x0 | (crossable.y0 << 16))},
-                                       {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
+                *class_item[item_class(crossable, crossable.covered)]++ = {
+                    {t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
+                    {t[1].x, t[1].y, t[1].z, std::int32_t(crossable.x0 | (crossable.y0 << 16))},
+                    {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
                 for_each_span(crossable, plan.rows, add_room);
-                add_item(0, item_class(crossable, crossable.covered));
-                ++index;
             }
         });
         return total;
@@ -528,10 +512,10 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
             bool any_work = false;
             for (int batch_first = word_first; batch_first < word_last;) {
                 const int batch_frames = batch_at(batch_first, word_last).frames;
-                const Gathered gathered = gather(batch_first, batch_frames);
+                const std::uint32_t items = gather(batch_first, batch_frames);
                 ++plan_.batches;
-                plan_.work_items += gathered.items;
-                if (gathered.items == 0) {  // no closed surface in this batch: its bits stay 0
+                plan_.work_items += items;
+                if (items == 0) {  // no closed surface in this batch: its bits stay 0
                     batch_first += batch_frames;
                     continue;
                 }
@@ -587,10 +571,9 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                         list_heads[4 * list + 3] = 0;
                     }
                 }
-                auto raster_set = raster_.bind({triangles.get(), work_items.get(), &bucket_cursor, &keys});
+                auto raster_set = raster_.bind({work_items.get(), &bucket_cursor, &keys});
                 auto columns_set = flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
                                                   &large_buckets, &huge_buckets, &lists, &medium_buckets});
-                const std::uint32_t items = gathered.items;
                 const RasterParams raster{0, 0, nx, ny, z_begin, slab_layers};
 
                 // The previous batch's last reads of the flips and keys must be done before they

@@ -81,10 +81,10 @@ private:
     static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
     struct Buffers {
         std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow, column_frames, spans, large_buckets, huge_buckets, lists;
-        std::unique_ptr<Buffer> medium_buckets, triangles, work_items;
-        std::array<std::unique_ptr<Buffer>*, 14> all() {
+        std::unique_ptr<Buffer> medium_buckets, work_items;
+        std::array<std::unique_ptr<Buffer>*, 13> all() {
             return {&mask,          &toggles,       &bucket_start, &bucket_cursor, &keys,           &overflow,  &column_frames,
-                    &spans,         &large_buckets, &huge_buckets, &lists,         &medium_buckets, &triangles, &work_items};
+                    &spans,         &large_buckets, &huge_buckets, &lists,         &medium_buckets, &work_items};
         }
     };
     Buffers buffers_;
