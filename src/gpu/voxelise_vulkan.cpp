@@ -161,17 +161,14 @@ template <bool Masks>
         if (Masks && starts.kind[i] == fixed::TriangleStarts::kMasked) {
             const std::uint32_t mask = fixed::coverage_mask(starts.start(i), width, height);
             const int stride = fixed::mask_stride_log2(width);
-            // The box of the covered columns: rows from the lowest and highest bits, columns from the
-            // rows folded onto each other. The mask is then taken from the box's corner.
-            std::uint32_t columns = mask;
-            for (int shift = fixed::kMaskLanes / 2; shift >= 1; shift >>= 1) columns |= (1 << stride) <= shift ? columns >> shift : 0u;
-            columns &= (1u << (1 << stride)) - 1u;
-            const int first_column = __builtin_ctz(columns | 0x100u), first_row = std::countr_zero(std::uint64_t(mask) | (std::uint64_t(1) << 32)) >> stride;
+            // The rows from the lowest to the highest bit (the mask then taken from the first), the
+            // columns of the bounding box.
+            const int first_row = std::countr_zero(std::uint64_t(mask) | (std::uint64_t(1) << 32)) >> stride;
             const std::uint32_t keys = std::uint32_t(__builtin_popcount(mask));
             plan.crossables[crossables] = {std::uint32_t(i),
-                                           std::uint32_t(std::uint64_t(mask) >> ((first_row << stride) + first_column)),
-                                           std::uint16_t(x0 + first_column),
-                                           std::uint16_t(x0 + 31 - __builtin_clz(columns | 1u)),
+                                           std::uint32_t(std::uint64_t(mask) >> (first_row << stride)),
+                                           std::uint16_t(x0),
+                                           std::uint16_t(x1),
                                            std::uint16_t(y0 + first_row),
                                            std::uint16_t(y0 + ((31 - __builtin_clz(mask | 1u)) >> stride)),
                                            keys,
