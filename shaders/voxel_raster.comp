@@ -15,13 +15,15 @@ const int RUN_COLUMNS = 64;  // voxelise_vulkan.cpp's kRunColumns
 
 // Read-only inputs are read as texels: on lavapipe a texel fetch gathers all lanes at once, a
 // storage-buffer load runs lane by lane.
-// 3 texels per work item, its triangle a, b, c: xyz fixed point; a.w = frame slot | MASKED | mask
-// stride << 8. A triangle with MASKED comes whole with its covered columns, as the host found them
-// by the same exact test (fixed::coverage_mask): c.w = a mask of rows 2^stride bits apart from the
-// column b.w = x0 | y0 << 16. Else the item is one run of it: c.w = first column | row << 11 |
-// (columns - 1) << 22.
+// 2 texels per work item (voxelise_vulkan.cpp's GpuItem): its triangle's vertices a, b, c, xyz
+// fixed point in 18 bits each, packed into two words each (x | y << 18, y >> 14 | z << 4 | kind
+// << 22 for a), where kind = frame slot | MASKED | mask stride << 6; then two words of data. A
+// triangle with MASKED comes whole with its covered columns, as the host found them by the same
+// exact test (fixed::coverage_mask): a mask of rows 2^stride bits apart, and the column
+// x0 | y0 << 16 of its bit 0. Else the item is one run of it: first column | row << 11 |
+// (columns - 1) << 22, then 0.
 layout(set = 0, binding = 0) uniform isamplerBuffer work_items;
-const uint MASKED = 1u << 16;
+const uint MASKED = 1u << 5;
 // The next free key slot of each bucket.
 layout(std430, set = 0, binding = 1) buffer BucketCursors { uint bucket_cursor[]; };
 layout(std430, set = 0, binding = 2) writeonly buffer Keys { uint keys[]; };
@@ -35,19 +37,22 @@ layout(push_constant) uniform Params {
     int slab_layers; // z layers in the slab
 } params;
 
+ivec3 unpack_vertex(uint low, uint high) {
+    return ivec3(int(low & 0x3ffffu), int((low >> 18) | ((high & 0xfu) << 14)), int((high >> 4) & 0x3ffffu));
+}
+
 void main() {
     uint item_index = params.work_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.work_count) return;
     // Read once here: on lavapipe a push-constant read inside the slot loop is a load per lane.
     const int64_t z_begin = int64_t(params.z_begin), slab_layers = int64_t(params.slab_layers);
     const uint nx = uint(params.nx), columns = uint(params.nx * params.ny);
-    ivec4 a4 = texelFetch(work_items, int(3u * item_index));
-    ivec3 a = a4.xyz;
-    ivec4 b4 = texelFetch(work_items, int(3u * item_index + 1u));
-    ivec4 c4 = texelFetch(work_items, int(3u * item_index + 2u));
-    uint place = uint(c4.w);
-    ivec3 b = b4.xyz, c = c4.xyz;
-    uint frame_slot = uint(a4.w) & 0xffu;
+    uvec4 vertices = uvec4(texelFetch(work_items, int(2u * item_index)));
+    uvec4 rest = uvec4(texelFetch(work_items, int(2u * item_index + 1u)));
+    ivec3 a = unpack_vertex(vertices.x, vertices.y), b = unpack_vertex(vertices.z, vertices.w), c = unpack_vertex(rest.x, rest.y);
+    uint kind = vertices.y >> 22;
+    uint place = rest.z;
+    uint frame_slot = kind & 31u;
     int64_t area = edge_function(a.xy, b.xy, c.xy);
     if (area == 0) return;  // seen edge-on from above: the vertical ray never crosses it
     uint upward = area > 0 ? 0u : 1u;  // a downward-facing face below a point adds +1 to its winding
@@ -69,11 +74,11 @@ void main() {
     int64_t step_x_numerator = int64_t(step_x_wa) * a.z + int64_t(step_x_wb) * b.z + int64_t(step_x_wc) * c.z;
     int64_t step_y_numerator = int64_t(step_y_wa) * a.z + int64_t(step_y_wb) * b.z + int64_t(step_y_wc) * c.z;
 
-    if ((uint(a4.w) & MASKED) != 0u) {
+    if ((kind & MASKED) != 0u) {
         // The covered columns are the mask's bits: bit (dy << stride) + dx is column (x0 + dx, y0 + dy).
-        int stride = int(uint(a4.w) >> 8) & 3;
-        int x0 = b4.w & 0xffff, y0 = int(uint(b4.w) >> 16);
-        uint pending = uint(c4.w);
+        int stride = int(kind >> 6);
+        int x0 = int(rest.w & 0xffffu), y0 = int(rest.w >> 16);
+        uint pending = rest.z;
         ivec2 corner = ivec2(x0 * int(SUBVOXEL) + int(half_voxel), y0 * int(SUBVOXEL) + int(half_voxel));
         int64_t corner_numerator = edge_function(b.xy, c.xy, corner) * int64_t(a.z) + edge_function(c.xy, a.xy, corner) * int64_t(b.z) +
                                    edge_function(a.xy, b.xy, corner) * int64_t(c.z) - half_voxel * area;

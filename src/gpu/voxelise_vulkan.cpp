@@ -18,16 +18,35 @@ namespace amhv::gpu {
 
 namespace {
 
-// One raster work item: a triangle (xyz fixed point) with a[3] = frame slot in the batch |
-// kMaskedTriangle | mask stride (log2) << 8. With a mask, the whole triangle: b[3] = the mask's
-// corner column x0 | y0 << 16, c[3] = the mask. Else one run of it: c[3] = run_word(...). The
-// triangle travels with each item, so the raster reads its items in order (an index into a list of
-// triangles had every subgroup's lanes miss the caches apart: the items go in classes).
+// One raster work item, two 128-bit texels: a triangle whose vertices take 54 bits each (x, y, z
+// fixed point in 18 bits: at most kMaxGridAxis * kSubvoxel = 2^17), vertex a's spare bits holding
+// the item's kind (frame slot in the batch | kMaskedTriangle | mask stride (log2) << 6); then with a
+// mask, the whole triangle: the mask and its corner column x0 | y0 << 16. Else one run of it:
+// run_word(...). The triangle travels with each item, so the raster reads its items in order (an
+// index into a list of triangles had every subgroup's lanes miss the caches apart: the items go in
+// classes), and packed, as a 48-byte item it cost a third more to write and fetch.
 struct GpuItem {
-    std::int32_t a[4], b[4], c[4];
+    std::uint32_t a[2], b[2], c[2];
+    std::uint32_t data[2];  // the mask and its corner, or the run
 };
-static_assert(sizeof(GpuItem) == 48);
-constexpr std::int32_t kMaskedTriangle = 1 << 16;
+static_assert(sizeof(GpuItem) == 32);
+static_assert(std::int64_t(kMaxGridAxis) * fixed::kSubvoxel < (1 << 18), "a coordinate fits 18 bits");
+constexpr std::uint32_t kMaskedTriangle = 1u << 5;
+// Vertex p's 54 bits as two words (x | y << 18, y >> 14 | z << 4), and 10 more bits in the second.
+inline void pack_vertex(const fixed::Point3& p, std::uint32_t extra, std::uint32_t (&out)[2]) {
+    const auto x = std::uint32_t(p.x), y = std::uint32_t(p.y), z = std::uint32_t(p.z);
+    out[0] = x | (y << 18);
+    out[1] = (y >> 14) | (z << 4) | (extra << 22);
+}
+inline GpuItem pack_item(const fixed::Triangle& t, std::uint32_t kind, std::uint32_t data0, std::uint32_t data1) {
+    GpuItem item;
+    pack_vertex(t[0], kind, item.a);
+    pack_vertex(t[1], 0, item.b);
+    pack_vertex(t[2], 0, item.c);
+    item.data[0] = data0;
+    item.data[1] = data1;
+    return item;
+}
 // A triangle with spans goes to the raster as runs: a row's span, in pieces of up to kRunColumns
 // columns, each a work item (first column | row << 11 | (columns - 1) << 22).
 constexpr int kRunColumns = 64;
@@ -287,7 +306,7 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
     // The key list ends in kKeyPadding spare slots: the column pass fetches a small bucket's keys
     // as a whole register set, past the bucket's end.
     const std::uint64_t key_limit = budget / 4 - kKeyPadding;
-    // A batch's work items (three 16-byte texels each) must also fit one buffer.
+    // A batch's work items (two 16-byte texels each) must also fit one buffer.
     const std::uint64_t item_limit = budget / sizeof(GpuItem);
     // After the call, lists beyond kKeptBytes go back.
     struct ReleaseHost {
@@ -469,16 +488,14 @@ void VulkanVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) 
                     for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
                         add_room(y, first, last);
                         for_each_run(first, last, [&](int x, int run) {
-                            *class_item[item_class(crossable, std::uint32_t(run))]++ = {
-                                {t[0].x, t[0].y, t[0].z, int(slot)}, {t[1].x, t[1].y, t[1].z, 0}, {t[2].x, t[2].y, t[2].z, std::int32_t(run_word(y, x, run))}};
+                            *class_item[item_class(crossable, std::uint32_t(run))]++ = pack_item(t, std::uint32_t(slot), run_word(y, x, run), 0);
                         });
                     });
                     continue;
                 }
-                *class_item[item_class(crossable, crossable.covered)]++ = {
-                    {t[0].x, t[0].y, t[0].z, int(slot) | kMaskedTriangle | (crossable.mask_stride << 8)},
-                    {t[1].x, t[1].y, t[1].z, std::int32_t(crossable.x0 | (crossable.y0 << 16))},
-                    {t[2].x, t[2].y, t[2].z, std::int32_t(crossable.coverage)}};
+                *class_item[item_class(crossable, crossable.covered)]++ =
+                    pack_item(t, std::uint32_t(slot) | kMaskedTriangle | (std::uint32_t(crossable.mask_stride) << 6), crossable.coverage,
+                              std::uint32_t(crossable.x0) | (std::uint32_t(crossable.y0) << 16));
                 for_each_span(crossable, plan.rows, add_room);
             }
         });
