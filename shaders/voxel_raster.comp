@@ -1,6 +1,7 @@
 #version 450
 // Pass 1 of the solid voxelisation. Every invocation takes one work item of a triangle: the whole
-// triangle when its covered columns come as a mask, or a run of one row's columns of a larger one. A bucket is one (column, frame slot): index slot * columns + column. Each crossing's
+// triangle when its covered columns come as a mask, or a run of one row's columns of a larger one.
+// A bucket is one (column, frame slot): index slot * columns + column. Each crossing's
 // key (layer << 1 | upward) goes into its bucket's next slot, where layer is the first voxel
 // centre above the crossing, relative to the slab (crossings below the slab count from its first
 // layer; those above it affect no voxel of the slab and are left out). The host gave every bucket

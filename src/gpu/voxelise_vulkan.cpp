@@ -24,7 +24,7 @@ namespace {
 // mask, the whole triangle: the mask and its corner column x0 | y0 << 16. Else one run of it:
 // run_word(...). The triangle travels with each item, so the raster reads its items in order (an
 // index into a list of triangles had every subgroup's lanes miss the caches apart: the items go in
-// classes), and packed, as a 48-byte item it cost a third more to write and fetch.
+// classes), and packed: as three texels (48 bytes) it cost half as much again to write and fetch.
 struct GpuItem {
     std::uint32_t a[2], b[2], c[2];
     std::uint32_t data[2];  // the mask and its corner, or the run
@@ -75,12 +75,12 @@ static_assert(kMaxGridAxis <= 65536, "column indices fit 16 bits");
 // box: a small one's covered columns exactly (fixed::coverage_mask, 93% of them at 10 mm), a larger
 // one's rows' spans of columns (each row's cross-section, fixed::CrossSections, which may hold a
 // column more where a centre lies on an edge). A bucket's room is the crossables whose mask or
-// spans hold its column, and the raster tests the box. Found once per call, while planning; the
-// batches' gathering reads them back.
+// spans hold its column; the raster takes a mask's columns as they are and tests a span's. Found
+// once per call, while planning; the batches' gathering reads them back.
 struct Crossable {
     std::uint32_t triangle;  // index in the frame
-    // With a mask stride: the coverage mask from the box's corner. Else the index of row y0's span
-    // in the frame's list; rows y0..y1 follow.
+    // With a mask stride: the coverage mask from the box's corner (x0, y0; rows y0..y1 hold its
+    // bits). Else the index of row y0's span in the frame's list; rows y0..y1 follow.
     std::uint32_t coverage;
     std::uint16_t x0, x1, y0, y1;
     std::uint32_t covered;     // the columns its mask or spans hold
@@ -140,9 +140,8 @@ void for_each_span(const Crossable& c, const std::vector<RowSpan, UninitialisedA
         if (span->first <= span->last) visit(y, int(span->first), int(span->last));
 }
 
-// `Masks`: small
-// triangles get coverage masks (only in plan_frame_with_masks, which is built for AVX2). The plan's
-// lists keep their capacity from an earlier call.
+// `Masks`: small triangles get coverage masks (only in plan_frame_with_masks, which is built for
+// AVX2). The plan's lists keep their capacity from an earlier call.
 template <bool Masks>
 [[gnu::always_inline]] inline void plan_frame(const PreparedFrame& frame, int nx, int ny, FramePlan& plan) {
     plan.clear();
