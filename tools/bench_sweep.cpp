@@ -7,7 +7,8 @@
 // full-sweep time. Reports poses/s
 // and seconds per full segment sweep, with mean, median and spread over repetitions.
 //
-//   build/tools/amhv_bench_sweep [--benchmark_repetitions=N]
+//   build/tools/amhv_bench_sweep [--benchmark_filter=vulkan/0]
+// (each run sets its own 3 repetitions, which --benchmark_repetitions does not override)
 #include <chrono>
 #include <map>
 #include <memory>
