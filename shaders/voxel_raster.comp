@@ -42,6 +42,17 @@ ivec3 unpack_vertex(uint low, uint high) {
     return ivec3(int(low & 0x3ffffu), int((low >> 18) | ((high & 0xfu) << 14)), int((high >> 4) & 0x3ffffu));
 }
 
+// The crossing at numerator / divisor into `bucket`'s next slot: its key is the first layer whose
+// centre lies above it, relative to the slab (see above), and `upward`.
+void add_crossing(uint bucket, int64_t numerator, int64_t divisor, float reciprocal, uint upward, int64_t z_begin, int64_t slab_layers) {
+    int64_t layer = floor_div_estimated(numerator, divisor, reciprocal) + 1 - z_begin;
+    // Above this slab: affects no voxel here. Below it: counts from its first layer.
+    if (layer < slab_layers) {
+        uint slot = atomicAdd(bucket_cursor[bucket], 1u);
+        keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
+    }
+}
+
 void main() {
     uint item_index = params.work_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.work_count) return;
@@ -90,13 +101,8 @@ void main() {
             int bit = findLSB(pending);
             int dx = bit & column_mask, dy = bit >> stride;
             int64_t numerator = corner_numerator + int64_t(dx) * step_x_numerator + int64_t(dy) * step_y_numerator;
-            int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - z_begin;
-            // Above this slab: affects no voxel here. Below it: counts from its first layer.
-            if (layer < slab_layers) {
-                uint bucket = frame_slot * columns + uint(y0 + dy) * nx + uint(x0 + dx);
-                uint slot = atomicAdd(bucket_cursor[bucket], 1u);
-                keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
-            }
+            add_crossing(frame_slot * columns + uint(y0 + dy) * nx + uint(x0 + dx), numerator, layer_divisor, layer_reciprocal, upward,
+                         z_begin, slab_layers);
         }
         return;
     }
@@ -114,13 +120,7 @@ void main() {
     int ec = coverage_edge(wc, is_top_left(a.xy, b.xy));
     uint bucket = frame_slot * columns + uint(y) * nx + uint(x_first);
     for (int i = 0; i < run; ++i) {
-        if ((ea | eb | ec) >= 0) {
-            int64_t layer = floor_div_estimated(numerator, layer_divisor, layer_reciprocal) + 1 - z_begin;
-            if (layer < slab_layers) {
-                uint slot = atomicAdd(bucket_cursor[bucket + uint(i)], 1u);
-                keys[slot] = (uint(max(layer, int64_t(0))) << 1) | upward;
-            }
-        }
+        if ((ea | eb | ec) >= 0) add_crossing(bucket + uint(i), numerator, layer_divisor, layer_reciprocal, upward, z_begin, slab_layers);
         ea += step_x_wa;
         eb += step_x_wb;
         ec += step_x_wc;
