@@ -1,5 +1,5 @@
 #version 450
-// Overlap maps of the placement sweep (METHOD.md section 5): for every pose offset (i, j) of the
+// Overlap maps of the placement sweep (docs/method.md section 5): for every pose offset (i, j) of the
 // range at once, does the fixed volume (A's side) share a voxel with the moving volume (B's side,
 // pulled under A's lattice at offset 0 by the host)? Both volumes come as slice runs
 // (src/sweep/slice_runs.hpp): a fixed run (y_a, [xa0, xa1]) and a pulled run (y_b, [xb0, xb1]) at

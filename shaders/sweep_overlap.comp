@@ -1,5 +1,5 @@
 #version 450
-// One overlap test of the placement sweep (METHOD.md section 5): for every pose, does a column of
+// One overlap test of the placement sweep (docs/method.md section 5): for every pose, does a column of
 // the static volume (A's side, on A's lattice) share a set bit with the column of the moving volume
 // (B's side) that the pull mapping puts under it? Every constraint is one or two such tests.
 //
@@ -12,7 +12,7 @@
 // Result: mode ANY sets bit 0 of the pose's first flag word when any overlap exists; mode
 // PER_FRAME sets bit t of the pose's flag words for every frame t with an overlap.
 #extension GL_GOOGLE_include_directive : require
-#include "pose_map.glsl"
+#include "sweep_pose_map.glsl"
 
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const int MAX_FRAME_WORDS = 16;

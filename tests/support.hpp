@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/geometry.hpp"
-#include "gpu/context.hpp"
+#include "src/core/geometry.hpp"
+#include "src/gpu/context.hpp"
 
 namespace amhv::test {
 

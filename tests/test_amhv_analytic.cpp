@@ -6,14 +6,14 @@
 
 #include <gtest/gtest.h>
 
-#include "body/shapes.hpp"
-#include "core/error.hpp"
-#include "body/skeleton_body.hpp"
-#include "core/normalise.hpp"
-#include "core/voxelise.hpp"
-#include "gpu/voxelise_vulkan.hpp"
-#include "io/bvh.hpp"
-#include "reference/voxelise_reference.hpp"
+#include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/core/normalise.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
+#include "src/io/bvh.hpp"
+#include "host/reference/voxelise_reference.hpp"
 #include "support.hpp"
 
 namespace amhv {

@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 #include <fmt/format.h>
 
-#include "body/skeleton_body.hpp"
-#include "core/error.hpp"
-#include "io/bvh.hpp"
-#include "scene/scene.hpp"
-#include "scene/segment.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/core/error.hpp"
+#include "src/io/bvh.hpp"
+#include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 #include "support.hpp"
 
 namespace amhv {

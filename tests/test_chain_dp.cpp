@@ -1,4 +1,4 @@
-// The choice of one solution per key segment (METHOD.md section 7): the distance-transform DP
+// The choice of one solution per key segment (docs/method.md section 7): the distance-transform DP
 // against exhaustive enumeration, the lower envelope against brute force, and the w_A -> infinity limit.
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "optimise/chain_dp.hpp"
+#include "host/choose/chain_dp.hpp"
 
 namespace amhv {
 namespace {

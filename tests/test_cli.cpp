@@ -12,10 +12,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "body/shapes.hpp"
-#include "core/error.hpp"
-#include "io/amhv_file.hpp"
-#include "io/bvh.hpp"
+#include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
+#include "src/io/amhv_file.hpp"
+#include "src/io/bvh.hpp"
 #include "support.hpp"
 
 namespace amhv {

@@ -11,9 +11,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "reference/voxelise_reference.hpp"
-#include "scene/scene.hpp"
-#include "scene/segment.hpp"
+#include "host/reference/voxelise_reference.hpp"
+#include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 #include "support.hpp"
 
 namespace amhv {

@@ -1,4 +1,4 @@
-// `amhv edit` end to end (METHOD.md sections 7, 8 and 10) on two small separately captured
+// `amhv edit` end to end (docs/method.md sections 7, 8 and 10) on two small separately captured
 // performers: the timeline, the chosen pose reproduced by the per-frame transforms, the meshes,
 // reuse of a sweep, both backends, byte-identical reruns, and the empty-group rules.
 #include <cmath>
@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "body/shapes.hpp"
-#include "edit/timeline.hpp"
-#include "scene/scene.hpp"
+#include "src/body/shapes.hpp"
+#include "src/edit/timeline.hpp"
+#include "src/scene/scene.hpp"
 #include "support.hpp"
 
 namespace amhv {

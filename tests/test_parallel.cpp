@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/parallel.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 namespace {

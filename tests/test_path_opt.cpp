@@ -1,4 +1,4 @@
-// Path optimisation of transitional segments (METHOD.md section 8): analytic cases and the sparse
+// Path optimisation of transitional segments (docs/method.md section 8): analytic cases and the sparse
 // banded solve against a generic dense least-squares solve.
 #include <cmath>
 #include <random>
@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "optimise/path_opt.hpp"
+#include "host/paths/path_opt.hpp"
 
 namespace amhv {
 namespace {
@@ -126,7 +126,7 @@ TEST(PathOpt, ATurnedObjectKeepsWalkingTheWayItFaces) {
             EXPECT_NEAR(s.facings[k], p.facings[k] + turn, 1e-8);
         }
         EXPECT_NEAR(s.root_cost, 0, 1e-14);
-        if (ends == 0) {  // without the turn (METHOD.md's world-frame velocities) the same two ends cost something
+        if (ends == 0) {  // without the turn (docs/method.md's world-frame velocities) the same two ends cost something
             p.turns.clear();
             EXPECT_GT(optimise_path(p, PathWeights{}).root_cost, 1e-6);
         }

@@ -12,9 +12,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "body/shapes.hpp"
-#include "core/error.hpp"
-#include "scene/scene.hpp"
+#include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
+#include "src/scene/scene.hpp"
 #include "support.hpp"
 
 namespace amhv {

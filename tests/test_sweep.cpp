@@ -6,14 +6,14 @@
 
 #include <gtest/gtest.h>
 
-#include "body/shapes.hpp"
-#include "core/error.hpp"
-#include "gpu/sweep_vulkan.hpp"
-#include "reference/sweep_reference.hpp"
-#include "reference/voxelise_reference.hpp"
-#include "sweep/column_volume.hpp"
-#include "sweep/objects.hpp"
-#include "sweep/slice_runs.hpp"
+#include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
+#include "src/sweep/sweep_vulkan.hpp"
+#include "host/reference/sweep_reference.hpp"
+#include "host/reference/voxelise_reference.hpp"
+#include "src/sweep/column_volume.hpp"
+#include "src/sweep/objects.hpp"
+#include "src/sweep/slice_runs.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -437,7 +437,7 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
     }
 }
 
-// Descriptors (METHOD.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.
+// Descriptors (docs/method.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.
 TEST(Sweep, DescriptorsOfAFaceToFacePose) {
     SweepProblem problem;
     problem.voxel = 0.01;

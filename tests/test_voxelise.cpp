@@ -6,13 +6,13 @@
 
 #include <gtest/gtest.h>
 
-#include "body/shapes.hpp"
-#include "core/coverage_starts.hpp"
-#include "core/error.hpp"
-#include "core/fixed_raster.hpp"
-#include "core/voxelise.hpp"
-#include "gpu/voxelise_vulkan.hpp"
-#include "reference/voxelise_reference.hpp"
+#include "src/body/shapes.hpp"
+#include "src/voxelise/coverage_starts.hpp"
+#include "src/core/error.hpp"
+#include "src/voxelise/fixed_raster.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
+#include "host/reference/voxelise_reference.hpp"
 #include "support.hpp"
 
 namespace amhv {

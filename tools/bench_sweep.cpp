@@ -16,10 +16,10 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "gpu/sweep_vulkan.hpp"
-#include "gpu/voxelise_vulkan.hpp"
-#include "reference/sweep_reference.hpp"
-#include "scene/segment.hpp"
+#include "src/sweep/sweep_vulkan.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
+#include "host/reference/sweep_reference.hpp"
+#include "src/scene/segment.hpp"
 
 namespace {
 

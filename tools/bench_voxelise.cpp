@@ -20,11 +20,11 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "body/skeleton_body.hpp"
-#include "core/voxelise.hpp"
-#include "gpu/voxelise_vulkan.hpp"
-#include "io/bvh.hpp"
-#include "reference/voxelise_reference.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
+#include "src/io/bvh.hpp"
+#include "host/reference/voxelise_reference.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Writes the paper-scale benchmark scene (README, "Benchmarks", B3), deterministically: two
+// Writes the paper-scale benchmark scene (docs/benchmarks.md, B3), deterministically: two
 // performers captured apart, each a BVH skeleton holding a sword (a "RightSword" joint), 9 key
 // segment pairs of sword play between walks, B's takes longer and shifted in time, 425 output
 // frames after normalisation, sampled at 10 mm / 2 degrees.

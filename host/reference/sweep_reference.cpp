@@ -1,4 +1,4 @@
-#include "reference/sweep_reference.hpp"
+#include "host/reference/sweep_reference.hpp"
 
 #include <cmath>
 #include <optional>

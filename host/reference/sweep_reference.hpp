@@ -1,8 +1,8 @@
 #pragma once
-// The plain CPU reference of the placement sweep: every constraint of METHOD.md section 5 evaluated
+// The plain CPU reference of the placement sweep: every constraint of docs/method.md section 5 evaluated
 // straight from its definition, voxel by voxel, with the shared integer pull mapping
 // (sweep/pose_map.hpp). Slow and obviously correct; the Vulkan path must give identical outcomes.
-#include "sweep/problem.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "reference/voxelise_reference.hpp"
+#include "host/reference/voxelise_reference.hpp"
 
 #include <vector>
 

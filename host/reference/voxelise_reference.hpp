@@ -1,9 +1,9 @@
 #pragma once
-// The plain CPU reference of the solid voxelisation kernels: the definition of METHOD.md section 3
+// The plain CPU reference of the solid voxelisation kernels: the definition of docs/method.md section 3
 // written out directly. For every voxel, the winding number is the sum of the signed crossings of
 // the surface strictly below its centre on the vertical line through it; the voxel is occupied
 // when that sum is non-zero. Single-threaded and obviously correct rather than fast.
-#include "core/voxelise.hpp"
+#include "src/voxelise/voxelise.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "body/shapes.hpp"
+#include "src/body/shapes.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -1,7 +1,7 @@
 #pragma once
 // Closed, outward-oriented triangle meshes of simple solids. Bodies built from skeletons are
 // unions of these; tests use them as shapes with known volume.
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv::shapes {
 

@@ -1,7 +1,7 @@
-#include "body/skeleton_body.hpp"
+#include "src/body/skeleton_body.hpp"
 
-#include "body/shapes.hpp"
-#include "core/error.hpp"
+#include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
 
 #include <algorithm>
 #include <cctype>

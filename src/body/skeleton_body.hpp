@@ -1,9 +1,9 @@
 #pragma once
 // A closed body mesh built around a skeleton's bones: one capsule per bone with a radius that
 // looks like a person, so the non-zero winding voxelisation sees one solid body.
-#include "core/geometry.hpp"
-#include "io/bvh.hpp"
-#include "io/mesh_sequence.hpp"
+#include "src/core/geometry.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/mesh_sequence.hpp"
 
 namespace amhv {
 

@@ -1,10 +1,10 @@
-#include "cli/backend.hpp"
+#include "src/cli/backend.hpp"
 
-#include "core/error.hpp"
-#include "gpu/sweep_vulkan.hpp"
-#include "gpu/voxelise_vulkan.hpp"
-#include "reference/sweep_reference.hpp"
-#include "reference/voxelise_reference.hpp"
+#include "src/core/error.hpp"
+#include "src/sweep/sweep_vulkan.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
+#include "host/reference/sweep_reference.hpp"
+#include "host/reference/voxelise_reference.hpp"
 
 namespace amhv::cli {
 

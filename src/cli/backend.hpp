@@ -7,9 +7,9 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "core/voxelise.hpp"
-#include "gpu/context.hpp"
-#include "sweep/problem.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/gpu/context.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv::cli {
 

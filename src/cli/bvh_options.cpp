@@ -1,6 +1,6 @@
-#include "cli/bvh_options.hpp"
+#include "src/cli/bvh_options.hpp"
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv::cli {
 

@@ -4,8 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "io/bvh.hpp"
-#include "io/mesh_sequence.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/mesh_sequence.hpp"
 
 namespace amhv::cli {
 

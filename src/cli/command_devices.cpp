@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "cli/commands.hpp"
-#include "gpu/context.hpp"
+#include "src/cli/commands.hpp"
+#include "src/gpu/context.hpp"
 
 namespace amhv::cli {
 

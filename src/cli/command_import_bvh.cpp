@@ -7,13 +7,13 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "body/skeleton_body.hpp"
-#include "cli/bvh_options.hpp"
-#include "cli/commands.hpp"
-#include "core/error.hpp"
-#include "io/bvh.hpp"
-#include "io/output_dir.hpp"
-#include "io/ply_file.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/cli/bvh_options.hpp"
+#include "src/cli/commands.hpp"
+#include "src/core/error.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/output_dir.hpp"
+#include "src/io/ply_file.hpp"
 
 namespace amhv::cli {
 

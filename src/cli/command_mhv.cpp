@@ -8,19 +8,19 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "body/skeleton_body.hpp"
-#include "cli/backend.hpp"
-#include "cli/bvh_options.hpp"
-#include "cli/commands.hpp"
-#include "core/error.hpp"
-#include "core/normalise.hpp"
-#include "core/voxelise.hpp"
-#include "io/amhv_file.hpp"
-#include "io/bvh.hpp"
-#include "io/exr_slices.hpp"
-#include "io/mesh_sequence.hpp"
-#include "io/output_dir.hpp"
-#include "io/vdb_file.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/cli/backend.hpp"
+#include "src/cli/bvh_options.hpp"
+#include "src/cli/commands.hpp"
+#include "src/core/error.hpp"
+#include "src/core/normalise.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/io/amhv_file.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/exr_slices.hpp"
+#include "src/io/mesh_sequence.hpp"
+#include "src/io/output_dir.hpp"
+#include "src/io/vdb_file.hpp"
 
 namespace amhv::cli {
 
@@ -167,7 +167,7 @@ void add_mhv_command(CLI::App& app) {
     command->add_option("--unit", args->unit, "Input unit: m, cm, mm, in, ft or metres per unit (default m; BVH: 0.0564444, CMU)");
     command->add_option("--up", args->up, "Input up axis: x, y or z (default z; BVH: y)");
     add_bvh_options(*command, args->bvh_options);
-    command->add_option("--resample", args->resample, "Resample the segment to N frames (METHOD.md section 2)");
+    command->add_option("--resample", args->resample, "Resample the segment to N frames (docs/method.md section 2)");
     command->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
     add_backend_options(*command, args->backend, args->device);
     command->add_option("--axis", args->axis, "EXR slicing axis: x, y or z")->capture_default_str();

@@ -1,18 +1,13 @@
 // `amhv check` and `amhv sweep`: scene validation and the constraint satisfaction stage.
 #include <chrono>
-#include <fstream>
 #include <iostream>
 
-#include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
-
-#include "cli/backend.hpp"
-#include "cli/commands.hpp"
-#include "cli/sweep_stage.hpp"
-#include "core/clock.hpp"
-#include "core/error.hpp"
-#include "io/output_dir.hpp"
-#include "scene/scene.hpp"
+#include "src/cli/backend.hpp"
+#include "src/cli/commands.hpp"
+#include "src/pipeline/sweep_stage.hpp"
+#include "src/core/error.hpp"
+#include "src/io/output_dir.hpp"
+#include "src/scene/scene.hpp"
 
 namespace amhv::cli {
 
@@ -37,19 +32,12 @@ void run_sweep(const SweepArguments& args) {
         throw Error(fmt::format("--segment: {} is not a key segment of {} (1..{})", args.segment, args.scene, scene.segments.size()));
 
     Backend backend(args.backend, args.device);
-    Voxeliser& voxeliser = backend.voxeliser();
-    Sweeper& sweeper = backend.sweeper();
-
-    ObjectSource a(scene.a), b(scene.b);
+    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
     StagedOutput out(args.out);
-    nlohmann::ordered_json json = result_header(scene, args.backend, backend.device());
-    SweepStage stage = run_sweep_stage(scene, a, b, voxeliser, sweeper, out.dir(), {args.segment, args.maps, args.timings});
-    json["segments"] = stage.segments;
+    const pipeline::SweepStage stage = pipeline::sweep_scene(scene, backends, out.dir(), {args.segment, args.maps, args.timings}, start);
     std::vector<int> empty_segments;
     for (const KeySweep& k : stage.sweeps)
         if (k.solutions.empty()) empty_segments.push_back(k.index);
-    if (args.timings) json["timings_s"] = {{"total", seconds_since(start)}};
-    std::ofstream(out.dir() / "result.json") << json.dump(2) << '\n';
     out.commit();
     std::cout << fmt::format("wrote {}/ (result.json, segment_N/solutions.csv{})\n", out.target().string(),
                              args.maps ? ", segment_N/feasibility/" : "");

@@ -1,3 +1,3 @@
-#include "cli/commands.hpp"
+#include "src/cli/commands.hpp"
 
 int main(int argc, char** argv) { return amhv::cli::run(argc, argv); }

@@ -4,8 +4,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
-#include "cli/commands.hpp"
-#include "core/error.hpp"
+#include "src/cli/commands.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv::cli {
 

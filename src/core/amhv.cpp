@@ -1,10 +1,10 @@
-#include "core/amhv.hpp"
+#include "src/core/amhv.hpp"
 
 #include <cstring>
 #include <mutex>
 
-#include "core/error.hpp"
-#include "core/parallel.hpp"
+#include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 

@@ -1,5 +1,5 @@
 #pragma once
-// The augmented Motion History Volume of one object over one segment (METHOD.md section 3):
+// The augmented Motion History Volume of one object over one segment (docs/method.md section 3):
 // per voxel, the full occupancy mask over the segment's frames.
 #include <bit>
 #include <cstdint>
@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/grid.hpp"
+#include "src/core/grid.hpp"
 
 namespace amhv {
 
@@ -111,7 +111,7 @@ private:
 struct AmhvSummary {
     std::size_t occupied_voxels = 0;
     std::size_t gap_voxels = 0;
-    Vec3 root = Vec3::Zero();  // mean of the occupied voxel centres (METHOD.md: root C)
+    Vec3 root = Vec3::Zero();  // mean of the occupied voxel centres (docs/method.md section 3: root C)
     Box3 bounds;               // of the occupied voxels (their full cubes)
     std::vector<std::size_t> occupied_per_frame;
 };

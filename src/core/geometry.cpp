@@ -1,4 +1,4 @@
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 #include <algorithm>
 #include <unordered_map>

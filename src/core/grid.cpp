@@ -1,8 +1,8 @@
-#include "core/grid.hpp"
+#include "src/core/grid.hpp"
 
 #include <cmath>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

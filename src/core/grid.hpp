@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <cstddef>
 
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv {
 

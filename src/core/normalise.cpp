@@ -1,9 +1,9 @@
-#include "core/normalise.hpp"
+#include "src/core/normalise.hpp"
 
 #include <algorithm>
 #include <cstdint>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

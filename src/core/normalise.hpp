@@ -1,5 +1,5 @@
 #pragma once
-// Temporal normalisation (METHOD.md section 2, eq. 12-13).
+// Temporal normalisation (docs/method.md section 2, eq. 12-13).
 #include <vector>
 
 namespace amhv {

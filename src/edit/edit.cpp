@@ -1,4 +1,4 @@
-#include "edit/edit.hpp"
+#include "src/edit/edit.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -8,23 +8,21 @@
 
 #include <Eigen/Geometry>
 
-#include "core/clock.hpp"
-#include "core/error.hpp"
-#include "optimise/path_opt.hpp"
-#include "sweep/pose_map.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/clock.hpp"
+#include "src/core/error.hpp"
+#include "host/paths/path_opt.hpp"
+#include "src/sweep/pose_map.hpp"
 
 namespace amhv {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using angles::nearest_turn;
+using angles::radians;
 
-double radians(double degrees) { return degrees * kPi / 180.0; }
 Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) { return Eigen::Rotation2Dd(angle) * v; }
 Eigen::Vector2d xy(const Vec3& v) { return {v.x(), v.y()}; }
-
-// The representative of `angle` (mod 2 pi) nearest to `reference`.
-double nearest_turn(double angle, double reference) { return angle - 2 * kPi * std::round((angle - reference) / (2 * kPi)); }
 
 // Per output frame: the facing from the track's gaze on the floor, else the constant facing, else +x;
 // unwrapped along the output so consecutive frames never jump by a full turn.
@@ -91,26 +89,20 @@ std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector
     return roots;
 }
 
-EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
-                      const EditOptions& options) {
-    EditResult r;
-    r.timeline = make_timeline(scene);
+namespace {
+
+// Per-frame roots and facings of every output frame of both objects, each source frame voxelised
+// once (docs/method.md section 8), and where the editor's placements put them.
+void frame_roots_and_facings(const Scene& scene, ObjectSource* sources[2], Voxeliser& voxeliser, EditResult& r) {
     const Timeline& timeline = r.timeline;
     const int length = timeline.length();
-    if (sweeps.size() != scene.segments.size())
-        throw Error(fmt::format("{}: the edit needs the sweep of all {} key segments, got {}", scene.file.string(), scene.segments.size(), sweeps.size()));
-    const double h = scene.sampling.voxel;
     const SceneObject* specs[2] = {&scene.a, &scene.b};
-    ObjectSource* sources[2] = {&a, &b};
-
-    // Per-frame roots and facings of every output frame (each source frame voxelised once).
-    auto t0 = std::chrono::steady_clock::now();
     for (int o = 0; o < 2; ++o) {
         const std::vector<int>& numbers = o == 0 ? timeline.frame_a : timeline.frame_b;
         std::vector<int> unique = numbers;
         std::sort(unique.begin(), unique.end());
         unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
-        const std::vector<Eigen::Vector2d> roots = frame_roots(*sources[o], unique, h, voxeliser);
+        const std::vector<Eigen::Vector2d> roots = frame_roots(*sources[o], unique, scene.sampling.voxel, voxeliser);
         const std::vector<double> facings = frame_facings(*sources[o], numbers);
         const Placement& place = specs[o]->placement;
         const double psi = radians(place.yaw_deg);
@@ -125,25 +117,33 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
             f.original_facing = f.facing + psi;
         }
     }
-    r.roots_seconds = seconds_since(t0);
+}
 
-    // One solution per key segment (METHOD.md section 7).
-    t0 = std::chrono::steady_clock::now();
-    const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
-    const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
+ChainWeights chain_weights(const Scene& scene) {
     ChainWeights weights;
-    weights.voxel = h;
+    weights.voxel = scene.sampling.voxel;
     weights.w_a = scene.weights.w_a;
     weights.w_b = scene.weights.w_b;
     weights.lambda = scene.weights.lambda;
     weights.mu = scene.weights.mu;
-    weights.yaw_a = psi_a;
-    weights.yaw_b = psi_b;
+    weights.yaw_a = radians(scene.a.placement.yaw_deg);
+    weights.yaw_b = radians(scene.b.placement.yaw_deg);
     weights.a_rotations_rad.clear();
     for (double d : scene.weights.a_rotations_deg) weights.a_rotations_rad.push_back(radians(d));
+    return weights;
+}
+
+// The DP's chain (docs/method.md section 7): each key segment's solutions as states, with the
+// pose where the editor's placements put B as the prior. An empty group stops the edit, or with
+// --allow-empty becomes the one state of B's captured placement on the lattice (`captured`).
+std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditOptions& options,
+                                     std::vector<bool>& captured) {
+    const double h = scene.sampling.voxel;
+    const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
+    const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
     const double step = radians(scene.sampling.angle_step_deg);
     std::vector<ChainSegment> chain(sweeps.size());
-    std::vector<bool> captured(sweeps.size(), false);
+    captured.assign(sweeps.size(), false);
     for (std::size_t i = 0; i < sweeps.size(); ++i) {
         const KeySweep& s = sweeps[i];
         const KeySegment& key = scene.segments[i];
@@ -153,24 +153,28 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
         // Where the editor's placements put B relative to A, in A's capture axes.
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
-        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
-        if (c.solutions.empty()) {
-            if (!options.allow_empty)
-                throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
-                                        "change its type, parts or visibility, or pass --allow-empty to keep B's captured placement there",
-                                        scene.file.string(), key.index, key.type.name(), s.poses_tested, rejection_counts(s.rejected)));
-            // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
-            captured[i] = true;
-            c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)),
-                                   std::round(c.prior_theta_rad / step) * step});
-        }
+        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg), sol.k});
+        if (!c.solutions.empty()) continue;
+        if (!options.allow_empty)
+            throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
+                                    "change its type, parts or visibility, or pass --allow-empty to keep B's captured placement there",
+                                    scene.file.string(), key.index, key.type.name(), s.poses_tested, rejection_counts(s.rejected)));
+        // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
+        captured[i] = true;
+        const int k = int(std::lround(c.prior_theta_rad / step));
+        c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)), k * step, k});
     }
-    r.choice = solve_chain(chain, weights);
-    const std::vector<Eigen::Vector2d> steps = a_translation_steps(chain, weights, r.choice);
-    r.dp_seconds = seconds_since(t0);
+    return chain;
+}
 
-    // The rigid move of each key segment pair.
-    t0 = std::chrono::steady_clock::now();
+// The rigid move of each key segment pair from the DP's choice, and every key frame's transform:
+// capture -> scene is R(yaw) (p - C_i) + C-bar_i.
+void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps, const std::vector<ChainSegment>& chain,
+                        const std::vector<bool>& captured, const ChainWeights& weights, EditResult& r) {
+    const double h = scene.sampling.voxel;
+    const double psi_a = weights.yaw_a, psi_b = weights.yaw_b;
+    const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y);
+    const std::vector<Eigen::Vector2d> steps = a_translation_steps(chain, weights, r.choice);
     Eigen::Vector2d t = Eigen::Vector2d::Zero();
     for (std::size_t i = 0; i < chain.size(); ++i) {
         const int j = r.choice.solution[i];
@@ -193,12 +197,11 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
         k.chosen.j = sol.j;
         k.chosen.x = offset.x();
         k.chosen.y = offset.y();
-        k.chosen.theta_deg = sol.theta_rad * 180 / kPi;
-        k.chosen.k = int(std::lround(sol.theta_rad / step));
+        k.chosen.theta_deg = angles::degrees(sol.theta_rad);
+        k.chosen.k = sol.k;
         if (!captured[i]) k.chosen = sweeps[i].solutions[std::size_t(j)];
         r.keys.push_back(k);
-        // Key frames: capture -> scene is R(yaw) (p - C_i) + C-bar_i.
-        const TimelineSegment& seg = *std::find_if(timeline.segments.begin(), timeline.segments.end(),
+        const TimelineSegment& seg = *std::find_if(r.timeline.segments.begin(), r.timeline.segments.end(),
                                                    [&](const TimelineSegment& s) { return s.key == k.index; });
         for (int o = 0; o < 2; ++o) {
             const double yaw = o == 0 ? k.yaw_a : k.yaw_b;
@@ -212,45 +215,75 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
             }
         }
     }
+}
 
-    // Transitional segments (METHOD.md section 8), each object on its own.
+// One object's path through one transitional segment (docs/method.md section 8), between the
+// edited ends of the key segments around it (one free end before the first and after the last).
+PathReport optimise_transition(const TimelineSegment& seg, int segment_index, int o, const PathWeights& pw, EditResult& r) {
+    const int length = r.timeline.length();
+    const bool before = seg.first > 0, after = seg.first + seg.length < length;
+    const int first = seg.first - (before ? 1 : 0), last = seg.first + seg.length - 1 + (after ? 1 : 0);
+    auto& frames = r.frames[std::size_t(o)];
+    PathProblem p;
+    for (int m = first; m <= last; ++m) {
+        p.roots.push_back(frames[std::size_t(m)].original_root);
+        p.facings.push_back(frames[std::size_t(m)].original_facing);
+    }
+    if (before) p.first = PathEnd{frames[std::size_t(first)].edited_root, frames[std::size_t(first)].edited_facing};
+    if (after) p.last = PathEnd{frames[std::size_t(last)].edited_root, frames[std::size_t(last)].edited_facing};
+    // The turn the edit gives the object, blended between the key segments' turns.
+    auto turn_at = [&](int m) { return frames[std::size_t(m)].edited_facing - frames[std::size_t(m)].original_facing; };
+    const double turn_first = before ? turn_at(first) : turn_at(last), turn_last = after ? turn_at(last) : turn_first;
+    for (int m = first; m <= last; ++m)
+        p.turns.push_back(turn_first + (turn_last - turn_first) * (last > first ? double(m - first) / (last - first) : 0.0));
+    const PathSolution sol = optimise_path(p, pw);
+    PathReport report{segment_index, o, seg.length, sol.root_cost, sol.facing_cost, 0};
+    for (int m = seg.first; m < seg.first + seg.length; ++m) {
+        ObjectFrameEdit& f = frames[std::size_t(m)];
+        f.edited_root = sol.roots[std::size_t(m - first)];
+        f.edited_facing = sol.facings[std::size_t(m - first)];
+        f.yaw = f.edited_facing - f.facing;
+        f.translation = f.edited_root - rotate(f.yaw, f.root);
+        report.max_shift_m = std::max(report.max_shift_m, (f.edited_root - f.original_root).norm());
+    }
+    return report;
+}
+
+}  // namespace
+
+EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
+                      const EditOptions& options) {
+    EditResult r;
+    r.timeline = make_timeline(scene);
+    if (sweeps.size() != scene.segments.size())
+        throw Error(fmt::format("{}: the edit needs the sweep of all {} key segments, got {}", scene.file.string(), scene.segments.size(), sweeps.size()));
+    ObjectSource* sources[2] = {&a, &b};
+
+    auto t0 = std::chrono::steady_clock::now();
+    frame_roots_and_facings(scene, sources, voxeliser, r);
+    r.roots_seconds = seconds_since(t0);
+
+    // One solution per key segment (docs/method.md section 7).
+    t0 = std::chrono::steady_clock::now();
+    const ChainWeights weights = chain_weights(scene);
+    std::vector<bool> captured;
+    const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, captured);
+    r.choice = solve_chain(chain, weights);
+    r.dp_seconds = seconds_since(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    place_key_segments(scene, sweeps, chain, captured, weights, r);
+    // Transitional segments, each object on its own.
     PathWeights pw;
     pw.delta = scene.weights.delta;
     pw.lambda = scene.weights.lambda;
     pw.alpha = scene.weights.alpha;
     pw.v_c = scene.weights.v_c;
     pw.r_c = scene.weights.r_c;
-    for (std::size_t s = 0; s < timeline.segments.size(); ++s) {
-        const TimelineSegment& seg = timeline.segments[s];
+    for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {
+        const TimelineSegment seg = r.timeline.segments[s];
         if (seg.key != 0 || seg.length == 0) continue;
-        const bool before = seg.first > 0, after = seg.first + seg.length < length;
-        const int first = seg.first - (before ? 1 : 0), last = seg.first + seg.length - 1 + (after ? 1 : 0);
-        for (int o = 0; o < 2; ++o) {
-            auto& frames = r.frames[std::size_t(o)];
-            PathProblem p;
-            for (int m = first; m <= last; ++m) {
-                p.roots.push_back(frames[std::size_t(m)].original_root);
-                p.facings.push_back(frames[std::size_t(m)].original_facing);
-            }
-            if (before) p.first = PathEnd{frames[std::size_t(first)].edited_root, frames[std::size_t(first)].edited_facing};
-            if (after) p.last = PathEnd{frames[std::size_t(last)].edited_root, frames[std::size_t(last)].edited_facing};
-            // The turn the edit gives the object, blended between the key segments' turns.
-            auto turn_at = [&](int m) { return frames[std::size_t(m)].edited_facing - frames[std::size_t(m)].original_facing; };
-            const double turn_first = before ? turn_at(first) : turn_at(last), turn_last = after ? turn_at(last) : turn_first;
-            for (int m = first; m <= last; ++m)
-                p.turns.push_back(turn_first + (turn_last - turn_first) * (last > first ? double(m - first) / (last - first) : 0.0));
-            const PathSolution sol = optimise_path(p, pw);
-            PathReport report{int(s), o, seg.length, sol.root_cost, sol.facing_cost, 0};
-            for (int m = seg.first; m < seg.first + seg.length; ++m) {
-                ObjectFrameEdit& f = frames[std::size_t(m)];
-                f.edited_root = sol.roots[std::size_t(m - first)];
-                f.edited_facing = sol.facings[std::size_t(m - first)];
-                f.yaw = f.edited_facing - f.facing;
-                f.translation = f.edited_root - rotate(f.yaw, f.root);
-                report.max_shift_m = std::max(report.max_shift_m, (f.edited_root - f.original_root).norm());
-            }
-            r.paths.push_back(report);
-        }
+        for (int o = 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, pw, r));
     }
     r.path_seconds = seconds_since(t0);
     return r;

@@ -1,5 +1,5 @@
 #pragma once
-// From the key segments' solution groups to the edited scene (METHOD.md sections 7, 8 and 10):
+// From the key segments' solution groups to the edited scene (docs/method.md sections 7, 8 and 10):
 // per-frame roots and facings, one solution per key segment by dynamic programming, the
 // transitional root paths by path optimisation, and the rigid transform of every output frame.
 #include <array>
@@ -8,11 +8,11 @@
 
 #include <Eigen/Core>
 
-#include "core/voxelise.hpp"
-#include "edit/timeline.hpp"
-#include "optimise/chain_dp.hpp"
-#include "scene/segment.hpp"
-#include "sweep/problem.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/edit/timeline.hpp"
+#include "host/choose/chain_dp.hpp"
+#include "src/scene/segment.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
 
@@ -42,7 +42,7 @@ struct ObjectFrameEdit {
 struct KeyEdit {
     int index = 0;
     bool captured = false;   // --allow-empty: an empty group, B kept at its captured placement
-    Solution chosen;         // B's pose relative to A (METHOD.md section 6)
+    Solution chosen;         // B's pose relative to A (docs/method.md section 6)
     int solution = -1;       // row of the solution group (-1 when captured)
     double a_rotation_rad = 0;  // delta_i
     Eigen::Vector2d a_translation = Eigen::Vector2d::Zero();  // t_i (t_1 = 0)

@@ -1,6 +1,6 @@
-#include "edit/timeline.hpp"
+#include "src/edit/timeline.hpp"
 
-#include "core/normalise.hpp"
+#include "src/core/normalise.hpp"
 
 namespace amhv {
 

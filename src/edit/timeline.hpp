@@ -1,10 +1,10 @@
 #pragma once
-// The edited scene's timeline (METHOD.md section 2): each object's frames split into transitional
+// The edited scene's timeline (docs/method.md section 2): each object's frames split into transitional
 // and key segments, every pair normalised to its shorter length, one after the other.
 #include <array>
 #include <vector>
 
-#include "scene/scene.hpp"
+#include "src/scene/scene.hpp"
 
 namespace amhv {
 

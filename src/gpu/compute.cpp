@@ -1,9 +1,9 @@
-#include "gpu/compute.hpp"
+#include "src/gpu/compute.hpp"
 
 #include <algorithm>
 #include <cstring>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv::gpu {
 

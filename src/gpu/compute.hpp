@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "gpu/context.hpp"
+#include "src/gpu/context.hpp"
 
 namespace amhv::gpu {
 

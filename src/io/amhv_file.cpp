@@ -1,10 +1,10 @@
-#include "io/amhv_file.hpp"
+#include "src/io/amhv_file.hpp"
 
 #include <bit>
 #include <cstring>
 #include <fstream>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -16,7 +16,7 @@
 //             u32[W]   occupancy: bit (t % 32) of word (t / 32) is frame t
 #include <filesystem>
 
-#include "core/amhv.hpp"
+#include "src/core/amhv.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "io/bvh.hpp"
+#include "src/io/bvh.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -7,7 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/error.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 
@@ -173,7 +174,7 @@ int axis_of(BvhJoint::Channel channel) {
 }
 
 Eigen::Matrix3d axis_rotation(BvhJoint::Channel channel, double degrees) {
-    double radians = degrees * M_PI / 180.0;
+    double radians = angles::radians(degrees);
     switch (channel) {
         case BvhJoint::Channel::XRotation: return Eigen::AngleAxisd(radians, Vec3::UnitX()).toRotationMatrix();
         case BvhJoint::Channel::YRotation: return Eigen::AngleAxisd(radians, Vec3::UnitY()).toRotationMatrix();
@@ -353,9 +354,9 @@ BvhMotion resample_bvh(const BvhMotion& motion, double fps) {
                     return Eigen::Quaterniond(r);
                 };
                 const Eigen::Matrix3d r = quaternion(a).slerp(w, quaternion(b)).toRotationMatrix();
-                const Vec3 angles = r.eulerAngles(axis_of(joint.channels[rotations[0]]), axis_of(joint.channels[rotations[1]]),
+                const Vec3 turned = r.eulerAngles(axis_of(joint.channels[rotations[0]]), axis_of(joint.channels[rotations[1]]),
                                                   axis_of(joint.channels[rotations[2]]));
-                for (int n = 0; n < 3; ++n) row[std::size_t(joint.first_channel) + rotations[std::size_t(n)]] = angles[n] * 180.0 / M_PI;
+                for (int n = 0; n < 3; ++n) row[std::size_t(joint.first_channel) + rotations[std::size_t(n)]] = angles::degrees(turned[n]);
             } else {
                 for (std::size_t c : rotations) {
                     const std::size_t at = std::size_t(joint.first_channel) + c;

@@ -8,7 +8,7 @@
 
 #include <Eigen/Geometry>
 
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "io/exr_slices.hpp"
+#include "src/io/exr_slices.hpp"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -15,7 +15,7 @@
 #include <limits>
 #include <vector>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -1,12 +1,12 @@
 #pragma once
-// MHV slices as OpenEXR (METHOD.md section 10) for any EXR viewer. Each slice image has FLOAT
+// MHV slices as OpenEXR (docs/method.md section 10) for any EXR viewer. Each slice image has FLOAT
 // channels R, G, B (a preview coloured by t_end, black where empty), t_start, t_end (NaN where
 // empty), frames (occupied-frame count) and label (+1 end surface, -1 start surface, 0 lateral,
 // NaN where empty). Header attributes (strings) give the voxel size, origin, axes and slice.
 #include <filesystem>
 #include <string>
 
-#include "core/amhv.hpp"
+#include "src/core/amhv.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "io/mesh_sequence.hpp"
+#include "src/io/mesh_sequence.hpp"
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
@@ -13,7 +13,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

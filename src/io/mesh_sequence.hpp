@@ -1,12 +1,12 @@
 #pragma once
-// Reading mesh sequences (METHOD.md section 9): a folder of frames sorted naturally, or a
+// Reading mesh sequences (docs/method.md section 9): a folder of frames sorted naturally, or a
 // printf-style pattern; OBJ, PLY, OFF and STL through OpenMesh; converted once to metres, z up.
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv {
 

@@ -1,8 +1,8 @@
-#include "io/output_dir.hpp"
+#include "src/io/output_dir.hpp"
 
 #include <unistd.h>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -1,9 +1,9 @@
-#include "io/ply_file.hpp"
+#include "src/io/ply_file.hpp"
 
 #include <bit>
 #include <fstream>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv {
 

@@ -1,6 +1,6 @@
-#include "io/vdb_file.hpp"
+#include "src/io/vdb_file.hpp"
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 #ifdef AMHV_HAVE_OPENVDB
 #include <openvdb/openvdb.h>

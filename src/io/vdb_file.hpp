@@ -3,7 +3,7 @@
 // `t_start` and `t_end` (frames), voxel centres at origin + (i + 1/2) h. Only when built with OpenVDB.
 #include <filesystem>
 
-#include "core/amhv.hpp"
+#include "src/core/amhv.hpp"
 
 namespace amhv {
 

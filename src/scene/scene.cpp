@@ -1,4 +1,4 @@
-#include "scene/scene.hpp"
+#include "src/scene/scene.hpp"
 
 #include <cmath>
 #include <set>
@@ -6,9 +6,9 @@
 
 #include <toml++/toml.h>
 
-#include "core/error.hpp"
-#include "core/normalise.hpp"
-#include "io/bvh.hpp"
+#include "src/core/error.hpp"
+#include "src/core/normalise.hpp"
+#include "src/io/bvh.hpp"
 
 namespace amhv {
 

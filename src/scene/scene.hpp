@@ -1,5 +1,5 @@
 #pragma once
-// Scene files (METHOD.md section 9): a human-written TOML file that describes the two objects,
+// Scene files (docs/method.md section 9): a human-written TOML file that describes the two objects,
 // their parts, the key segment pairs, the sampling and the weights. Everything is validated before
 // any work, and every error names the file, the line and the key.
 #include <array>
@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.hpp"
-#include "io/bvh.hpp"
-#include "io/mesh_sequence.hpp"
-#include "sweep/interaction.hpp"
+#include "src/core/geometry.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/mesh_sequence.hpp"
+#include "src/sweep/interaction.hpp"
 
 namespace amhv {
 

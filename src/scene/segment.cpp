@@ -1,4 +1,4 @@
-#include "scene/segment.hpp"
+#include "src/scene/segment.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +6,10 @@
 #include <numbers>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "io/bvh.hpp"
-#include "sweep/objects.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
+#include "src/io/bvh.hpp"
+#include "src/sweep/objects.hpp"
 
 namespace amhv {
 
@@ -176,84 +177,156 @@ Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int
         Eigen::Vector2d facing(mean->gaze.x(), mean->gaze.y());
         if (facing.norm() > 1e-9) return facing.normalized();
     }
-    double degrees = object.spec().facing_deg.value_or(0.0);
-    return {std::cos(degrees * std::numbers::pi / 180), std::sin(degrees * std::numbers::pi / 180)};
+    const double facing = angles::radians(object.spec().facing_deg.value_or(0.0));
+    return {std::cos(facing), std::sin(facing)};
 }
+
+namespace {
+
+// The labelled parts of one frame that a part spec names (Parts) or leaves out (PartsExcept).
+std::vector<MeshFrame> select_parts(const std::vector<BodyPart>& parts, const PartSpec& spec, const std::string& name, int number) {
+    std::vector<MeshFrame> out;
+    for (const BodyPart& p : parts) {
+        const bool listed = std::find(spec.labels.begin(), spec.labels.end(), p.name) != spec.labels.end();
+        if (listed == (spec.kind == PartSpec::Kind::Parts)) out.push_back({p.mesh, fmt::format("object {} frame {} part {}", name, number, p.name)});
+    }
+    return out;
+}
+
+PartRule part_rule(const PartSpec& spec) {
+    switch (spec.kind) {
+        case PartSpec::Kind::Whole: return PartRule::Whole;
+        case PartSpec::Kind::WholeMinusInterest: return PartRule::WholeMinusInterest;
+        case PartSpec::Kind::Box: return PartRule::Box;
+        default: return PartRule::Meshes;
+    }
+}
+
+// One object's meshes of one key segment, as the volume builder reads them: per normalised frame,
+// the whole body and the meshes of its interest and fidelity parts. `storage` owns the copies.
+struct SegmentMeshes {
+    std::vector<std::vector<MeshFrame>> storage;
+    std::vector<ObjectFrame> frames;
+    std::vector<int> numbers;  // the source frame of each normalised frame
+};
+
+// Adds the meshes a part spec names (a separate sequence, or labelled parts) to one frame's list.
+void attach_part(ObjectSource& source, const PartSpec& spec, const std::vector<BodyPart>& parts, int number, std::vector<MeshFrame>& own,
+                 std::vector<const MeshFrame*>& list) {
+    if (spec.kind == PartSpec::Kind::Meshes) {
+        own.push_back(source.part_frame(spec.meshes, number));
+        list.push_back(&own.back());
+    } else if (spec.kind == PartSpec::Kind::Parts || spec.kind == PartSpec::Kind::PartsExcept) {
+        for (MeshFrame& f : select_parts(parts, spec, source.spec().name, number)) {
+            own.push_back(std::move(f));
+            list.push_back(&own.back());
+        }
+    }
+}
+
+SegmentMeshes segment_meshes(ObjectSource& source, int first, const std::vector<int>& relative, const PartSpec& interest,
+                             const PartSpec& fidelity) {
+    const std::string& name = source.spec().name;
+    SegmentMeshes m;
+    m.storage.resize(relative.size());
+    m.frames.resize(relative.size());
+    for (std::size_t f = 0; f < relative.size(); ++f) {
+        const int number = first + relative[f];
+        m.numbers.push_back(number);
+        const auto& parts = source.frame_parts(number);
+        auto& own = m.storage[f];
+        // Room for every copy up front: the frames keep pointers into it.
+        own.reserve(parts.size() * 3 + 2);
+        for (const BodyPart& p : parts) own.push_back({p.mesh, fmt::format("object {} frame {}{}", name, number, p.name.empty() ? "" : " part " + p.name)});
+        const std::size_t whole_count = own.size();
+        for (std::size_t k = 0; k < whole_count; ++k) m.frames[f].whole.push_back(&own[k]);
+        attach_part(source, interest, parts, number, own, m.frames[f].interest);
+        attach_part(source, fidelity, parts, number, own, m.frames[f].fidelity);
+    }
+    return m;
+}
+
+// One object's volumes in one key segment (docs/method.md sections 3 and 9).
+SweepObject segment_object(ObjectSource& source, int first, const std::vector<int>& relative, const PartSpec& interest,
+                           const PartSpec& fidelity, double h, Voxeliser& voxeliser, const std::string& where, std::vector<int>& numbers) {
+    const std::string& name = source.spec().name;
+    SegmentMeshes meshes = segment_meshes(source, first, relative, interest, fidelity);
+    numbers = meshes.numbers;
+    // Every part named must exist: label files name their parts only as frames are read, so this
+    // comes after the segment's frames (and before any voxelisation).
+    for (const PartSpec* spec : {&interest, &fidelity})
+        for (const std::string& label : spec->labels)
+            if (std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end())
+                fail(where, "object {} has no part '{}'", name, label);
+    ObjectParts parts;
+    parts.interest = part_rule(interest);
+    parts.fidelity = part_rule(fidelity);
+    parts.interest_is_separate = interest.kind == PartSpec::Kind::Meshes;
+    parts.fidelity_is_separate = fidelity.kind == PartSpec::Kind::Meshes;
+    if (interest.kind == PartSpec::Kind::Box) parts.interest_box = interest.box;
+    if (fidelity.kind == PartSpec::Kind::Box) parts.fidelity_box = fidelity.box;
+    SweepObject object = build_sweep_object(name, meshes.frames, parts, h, voxeliser);
+    object.facing = segment_facing(source, numbers);
+    return object;
+}
+
+// An object's view cone over `region` (docs/method.md section 5): from the mean track, or without
+// one, eyes 10 cm below the top of the body above the root, looking along the facing.
+ConeVolume segment_cone(const SweepObject& self, ObjectSource& source, const std::vector<int>& numbers, const Box3& region,
+                        const VisibilitySpec& visibility, double h) {
+    ViewCone cone;
+    cone.half_angle_deg = visibility.half_angle_deg;
+    cone.range = visibility.range;
+    auto mean = mean_track(source, numbers);
+    if (mean && mean->gaze.norm() > 1e-9) {
+        cone.eye = mean->eye;
+        cone.gaze = mean->gaze.normalized();
+    } else {
+        Box3 bounds = summarise(self.whole).bounds;
+        cone.eye = Vec3(self.root.x(), self.root.y(), bounds.max.z() - 0.1);
+        cone.gaze = Vec3(self.facing.x(), self.facing.y(), 0);
+    }
+    Box3 r = region;
+    if (cone.range > 0) {
+        r.min = r.min.cwiseMax(cone.eye - Vec3::Constant(cone.range));
+        r.max = r.max.cwiseMin(cone.eye + Vec3::Constant(cone.range));
+        if (r.empty()) r.min = r.max = cone.eye;
+        r.max += Vec3::Constant(h);
+    }
+    return view_cone_volume(cone, r, h);
+}
+
+// Each cone is rasterised over the region where the other's body can be at any pose of the range.
+void add_view_cones(SweepProblem& p, ObjectSource& a, ObjectSource& b, const std::vector<int>& numbers_a, const std::vector<int>& numbers_b,
+                    const VisibilitySpec& visibility) {
+    const double h = p.voxel;
+    const double s_max = std::max({std::hypot(p.range.i_first * h, p.range.j_first * h), std::hypot(p.range.i_last * h, p.range.j_first * h),
+                                   std::hypot(p.range.i_first * h, p.range.j_last * h), std::hypot(p.range.i_last * h, p.range.j_last * h)});
+    const VoxelGrid& ga = p.a.whole.grid();
+    const VoxelGrid& gb = p.b.whole.grid();
+    const double reach_a = reach_from(p.a.whole, p.a.root), reach_b = reach_from(p.b.whole, p.b.root);
+    Box3 region_a;  // where B's body can be, in A's frame
+    region_a.min = Vec3(p.a.root.x() + p.range.i_first * h - reach_b, p.a.root.y() + p.range.j_first * h - reach_b, gb.origin.z());
+    region_a.max = Vec3(p.a.root.x() + p.range.i_last * h + reach_b, p.a.root.y() + p.range.j_last * h + reach_b, gb.origin.z() + gb.dims[2] * h);
+    Box3 region_b;  // where A's body can be, in B's frame
+    const double r = reach_a + s_max + h;
+    region_b.min = Vec3(p.b.root.x() - r, p.b.root.y() - r, ga.origin.z());
+    region_b.max = Vec3(p.b.root.x() + r, p.b.root.y() + r, ga.origin.z() + ga.dims[2] * h);
+    p.a.view_cone = segment_cone(p.a, a, numbers_a, region_a, visibility, h);
+    p.b.view_cone = segment_cone(p.b, b, numbers_b, region_b, visibility, h);
+}
+
+}  // namespace
 
 SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
     SegmentBuild build;
     build.frames = normalise_pair(segment.a[1] - segment.a[0] + 1, segment.b[1] - segment.b[0] + 1);
     const double h = scene.sampling.voxel;
     const std::string where = fmt::format("{}: segments[{}]", scene.file.string(), segment.index);
-
-    auto make = [&](ObjectSource& source, int first, const std::vector<int>& relative, const PartSpec& interest, const PartSpec& fidelity,
-                    std::vector<int>& numbers) {
-        const std::string& name = source.spec().name;
-        // Owned copies of the frame meshes the voxeliser reads.
-        std::vector<std::vector<MeshFrame>> storage(relative.size());
-        std::vector<ObjectFrame> frames(relative.size());
-        auto select = [&](const std::vector<BodyPart>& parts, const PartSpec& spec, int number) {
-            std::vector<MeshFrame> out;
-            for (const BodyPart& p : parts) {
-                bool listed = std::find(spec.labels.begin(), spec.labels.end(), p.name) != spec.labels.end();
-                if (listed == (spec.kind == PartSpec::Kind::Parts))
-                    out.push_back({p.mesh, fmt::format("object {} frame {} part {}", name, number, p.name)});
-            }
-            return out;
-        };
-        for (std::size_t m = 0; m < relative.size(); ++m) {
-            const int number = first + relative[m];
-            numbers.push_back(number);
-            const auto& parts = source.frame_parts(number);
-            auto& own = storage[m];
-            own.reserve(parts.size() * 3 + 2);
-            for (const BodyPart& p : parts) own.push_back({p.mesh, fmt::format("object {} frame {}{}", name, number, p.name.empty() ? "" : " part " + p.name)});
-            const std::size_t whole_count = own.size();
-            for (std::size_t k = 0; k < whole_count; ++k) frames[m].whole.push_back(&own[k]);
-            auto attach = [&](const PartSpec& spec, std::vector<const MeshFrame*>& list) {
-                if (spec.kind == PartSpec::Kind::Meshes) {
-                    own.push_back(source.part_frame(spec.meshes, number));
-                    list.push_back(&own.back());
-                } else if (spec.kind == PartSpec::Kind::Parts || spec.kind == PartSpec::Kind::PartsExcept) {
-                    for (MeshFrame& f : select(parts, spec, number)) {
-                        own.push_back(std::move(f));
-                        list.push_back(&own.back());
-                    }
-                }
-            };
-            attach(interest, frames[m].interest);
-            attach(fidelity, frames[m].fidelity);
-        }
-        // Every part named must exist: label files name their parts only as frames are read, so
-        // this comes after the segment's frames (and before any voxelisation).
-        for (const PartSpec* spec : {&interest, &fidelity})
-            for (const std::string& label : spec->labels)
-                if (std::find(source.label_names().begin(), source.label_names().end(), label) == source.label_names().end())
-                    fail(where, "object {} has no part '{}'", name, label);
-        auto rule = [](const PartSpec& spec) {
-            switch (spec.kind) {
-                case PartSpec::Kind::Whole: return PartRule::Whole;
-                case PartSpec::Kind::WholeMinusInterest: return PartRule::WholeMinusInterest;
-                case PartSpec::Kind::Box: return PartRule::Box;
-                default: return PartRule::Meshes;
-            }
-        };
-        ObjectParts parts;
-        parts.interest = rule(interest);
-        parts.fidelity = rule(fidelity);
-        parts.interest_is_separate = interest.kind == PartSpec::Kind::Meshes;
-        parts.fidelity_is_separate = fidelity.kind == PartSpec::Kind::Meshes;
-        if (interest.kind == PartSpec::Kind::Box) parts.interest_box = interest.box;
-        if (fidelity.kind == PartSpec::Kind::Box) parts.fidelity_box = fidelity.box;
-        SweepObject object = build_sweep_object(name, frames, parts, h, voxeliser);
-        object.facing = segment_facing(source, numbers);
-        return object;
-    };
-
     std::vector<int> numbers_a, numbers_b;
     SweepProblem& p = build.problem;
-    p.a = make(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, numbers_a);
-    p.b = make(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, numbers_b);
+    p.a = segment_object(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, h, voxeliser, where, numbers_a);
+    p.b = segment_object(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, h, voxeliser, where, numbers_b);
     p.type = segment.type;
     p.tolerance = segment.tolerance;
     p.voxel = h;
@@ -263,49 +336,8 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     p.range = automatic_range(p.a, p.b, h, scene.sampling.angles());
     narrow_range(p.range, h, scene.sampling.x_range ? &*scene.sampling.x_range : nullptr,
                  scene.sampling.y_range ? &*scene.sampling.y_range : nullptr);
-
     p.visibility = segment.visibility.enabled;
-    if (p.visibility) {
-        // Each cone is rasterised over the region where the other's body can be at any pose.
-        const double s_max = std::max({std::hypot(p.range.i_first * h, p.range.j_first * h), std::hypot(p.range.i_last * h, p.range.j_first * h),
-                                       std::hypot(p.range.i_first * h, p.range.j_last * h), std::hypot(p.range.i_last * h, p.range.j_last * h)});
-        auto cone_of = [&](const SweepObject& self, ObjectSource& source, const std::vector<int>& numbers, const Box3& region) {
-            ViewCone cone;
-            cone.half_angle_deg = segment.visibility.half_angle_deg;
-            cone.range = segment.visibility.range;
-            auto mean = mean_track(source, numbers);
-            if (mean && mean->gaze.norm() > 1e-9) {
-                cone.eye = mean->eye;
-                cone.gaze = mean->gaze.normalized();
-            } else {
-                // No track: eyes 10 cm below the top of the body above the root, looking along the facing.
-                Box3 bounds = summarise(self.whole).bounds;
-                cone.eye = Vec3(self.root.x(), self.root.y(), bounds.max.z() - 0.1);
-                cone.gaze = Vec3(self.facing.x(), self.facing.y(), 0);
-            }
-            Box3 r = region;
-            if (cone.range > 0) {
-                r.min = r.min.cwiseMax(cone.eye - Vec3::Constant(cone.range));
-                r.max = r.max.cwiseMin(cone.eye + Vec3::Constant(cone.range));
-                if (r.empty()) r.min = r.max = cone.eye;
-                r.max += Vec3::Constant(h);
-            }
-            return view_cone_volume(cone, r, h);
-        };
-        const VoxelGrid& ga = p.a.whole.grid();
-        const VoxelGrid& gb = p.b.whole.grid();
-        const double reach_a = reach_from(p.a.whole, p.a.root), reach_b = reach_from(p.b.whole, p.b.root);
-        Box3 region_a;  // where B's body can be, in A's frame
-        region_a.min = Vec3(p.a.root.x() + p.range.i_first * h - reach_b, p.a.root.y() + p.range.j_first * h - reach_b, gb.origin.z());
-        region_a.max = Vec3(p.a.root.x() + p.range.i_last * h + reach_b, p.a.root.y() + p.range.j_last * h + reach_b,
-                            gb.origin.z() + gb.dims[2] * h);
-        Box3 region_b;  // where A's body can be, in B's frame
-        const double r = reach_a + s_max + h;
-        region_b.min = Vec3(p.b.root.x() - r, p.b.root.y() - r, ga.origin.z());
-        region_b.max = Vec3(p.b.root.x() + r, p.b.root.y() + r, ga.origin.z() + ga.dims[2] * h);
-        p.a.view_cone = cone_of(p.a, a, numbers_a, region_a);
-        p.b.view_cone = cone_of(p.b, b, numbers_b, region_b);
-    }
+    if (p.visibility) add_view_cones(p, a, b, numbers_a, numbers_b, segment.visibility);
     validate(p);
     return build;
 }

@@ -5,11 +5,11 @@
 #include <memory>
 #include <optional>
 
-#include "body/skeleton_body.hpp"
-#include "core/normalise.hpp"
-#include "core/voxelise.hpp"
-#include "scene/scene.hpp"
-#include "sweep/problem.hpp"
+#include "src/body/skeleton_body.hpp"
+#include "src/core/normalise.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/scene/scene.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
 

@@ -1,11 +1,11 @@
-#include "sweep/column_volume.hpp"
+#include "src/sweep/column_volume.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

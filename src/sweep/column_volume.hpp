@@ -9,9 +9,9 @@
 #include <functional>
 #include <vector>
 
-#include "core/amhv.hpp"
-#include "sweep/pose_map.hpp"
-#include "sweep/problem.hpp"
+#include "src/core/amhv.hpp"
+#include "src/sweep/pose_map.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
 

@@ -1,9 +1,9 @@
-#include "sweep/interaction.hpp"
+#include "src/sweep/interaction.hpp"
 
 #include <algorithm>
 #include <cctype>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

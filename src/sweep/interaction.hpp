@@ -1,5 +1,5 @@
 #pragma once
-// Interaction types of the dictionary (METHOD.md section 5, eq. 4-11).
+// Interaction types of the dictionary (docs/method.md section 5, eq. 4-11).
 #include <string>
 
 namespace amhv {

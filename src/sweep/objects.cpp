@@ -1,11 +1,12 @@
-#include "sweep/objects.hpp"
+#include "src/sweep/objects.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
 
-#include "core/error.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 
@@ -98,7 +99,7 @@ ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double vox
     out.grid = grid;
     out.spans.assign(std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]), {1, 0});
     const Vec3 axis = cone.gaze.normalized();
-    const double cos_half = std::cos(cone.half_angle_deg * std::numbers::pi / 180.0);
+    const double cos_half = std::cos(angles::radians(cone.half_angle_deg));
     // A point at `length` from the eye, `along` of it along the gaze, is in the cone.
     auto accepts = [&](double along, double length) {
         return length > 0 && along >= cos_half * length && (cone.range <= 0 || length <= cone.range);

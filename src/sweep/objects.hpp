@@ -1,11 +1,11 @@
 #pragma once
-// Building one object's sweep volumes for one key segment (METHOD.md sections 3, 5 and 9): the
+// Building one object's sweep volumes for one key segment (docs/method.md sections 3, 5 and 9): the
 // whole body, the volume of interest and the fidelity volume on one shared grid, and a view cone.
 #include <optional>
 #include <vector>
 
-#include "core/voxelise.hpp"
-#include "sweep/problem.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
 

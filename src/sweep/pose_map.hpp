@@ -1,6 +1,6 @@
 #pragma once
-// The pull mapping of the placement sweep (METHOD.md section 4), in integer arithmetic so the CPU
-// reference and the compute shaders (shaders/pose_map.glsl mirrors this line for line) map every
+// The pull mapping of the placement sweep (docs/method.md section 4), in integer arithmetic so the CPU
+// reference and the compute shaders (shaders/sweep_pose_map.glsl mirrors this line for line) map every
 // column to the same source column, even when a point lands exactly on a voxel boundary.
 //
 // Pose p = (x, y, theta) = (i h, j h, k dtheta): B is rotated by theta about the vertical axis

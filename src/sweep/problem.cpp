@@ -1,24 +1,18 @@
-#include "sweep/problem.hpp"
+#include "src/sweep/problem.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 
 namespace {
 
-double wrap_degrees(double degrees) {
-    double w = std::fmod(degrees, 360.0);
-    if (w > 180.0) w -= 360.0;
-    if (w <= -180.0) w += 360.0;
-    return w;
-}
-
 double signed_angle_deg(const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
-    return std::atan2(from.x() * to.y() - from.y() * to.x(), from.dot(to)) * 180.0 / std::numbers::pi;
+    return angles::degrees(std::atan2(from.x() * to.y() - from.y() * to.x(), from.dot(to)));
 }
 
 bool is_lattice_aligned(const VoxelGrid& grid, double voxel) {
@@ -55,7 +49,7 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
 
 }  // namespace
 
-posemap::Trig SweepProblem::trig(int k) const { return posemap::quantise_rotation(angle_deg(k) * std::numbers::pi / 180.0); }
+posemap::Trig SweepProblem::trig(int k) const { return posemap::quantise_rotation(angles::radians(angle_deg(k))); }
 
 Amhv ConeVolume::to_amhv() const {
     Amhv out(grid, 1);
@@ -80,6 +74,9 @@ void validate(const SweepProblem& problem) {
     validate_object(problem.a, problem);
     validate_object(problem.b, problem);
     if (problem.range.angles < 1) fail("sampling.angle_step_deg", "gives no angle");
+    // The step is stored beside the angle count: both must describe the same full circle.
+    if (!(problem.angle_step_deg > 0) || std::abs(problem.range.angles * problem.angle_step_deg - 360.0) > 1e-6)
+        fail("sampling.angle_step_deg", "{} angles of {} deg do not make the full circle", problem.range.angles, problem.angle_step_deg);
     if (problem.tolerance < 0) fail("tolerance", "must not be negative");
 }
 
@@ -147,14 +144,14 @@ Solution describe(const SweepProblem& problem, int i, int j, int k) {
     s.k = k;
     s.x = i * problem.voxel;
     s.y = j * problem.voxel;
-    s.theta_deg = wrap_degrees(problem.angle_deg(k));
+    s.theta_deg = angles::wrap_degrees(problem.angle_deg(k));
     s.distance = std::hypot(s.x, s.y);
     if (s.distance > 0) {
         Eigen::Vector2d towards_b(s.x, s.y);
-        double theta = problem.angle_deg(k) * std::numbers::pi / 180.0;
+        double theta = angles::radians(problem.angle_deg(k));
         Eigen::Vector2d facing_b = Eigen::Rotation2Dd(theta) * problem.b.facing;
-        s.theta_a_deg = wrap_degrees(signed_angle_deg(problem.a.facing, towards_b));
-        s.theta_b_deg = wrap_degrees(signed_angle_deg(facing_b, -towards_b));
+        s.theta_a_deg = angles::wrap_degrees(signed_angle_deg(problem.a.facing, towards_b));
+        s.theta_b_deg = angles::wrap_degrees(signed_angle_deg(facing_b, -towards_b));
     }
     return s;
 }

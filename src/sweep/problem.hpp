@@ -1,5 +1,5 @@
 #pragma once
-// One key segment pair's constraint satisfaction problem (METHOD.md sections 4-6) and its answer.
+// One key segment pair's constraint satisfaction problem (docs/method.md sections 4-6) and its answer.
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -9,9 +9,10 @@
 
 #include <Eigen/Core>
 
-#include "core/amhv.hpp"
-#include "sweep/interaction.hpp"
-#include "sweep/pose_map.hpp"
+#include "src/core/amhv.hpp"
+#include "src/core/angles.hpp"
+#include "src/sweep/interaction.hpp"
+#include "src/sweep/pose_map.hpp"
 
 namespace amhv {
 
@@ -61,6 +62,8 @@ struct SweepProblem {
 
     int frames() const { return a.interest.frames(); }
     double angle_deg(int k) const { return k * angle_step_deg; }
+    // The angle lattice of the poses (validate() checks that the step and the count agree).
+    angles::AngleLattice angle_lattice() const { return {angle_step_deg, range.angles}; }
     posemap::Trig trig(int k) const;
     // Roots in the fixed point of pose_map.hpp.
     std::array<std::int64_t, 2> root_a_q() const;
@@ -71,7 +74,7 @@ struct SweepProblem {
 // and throws amhv::Error naming what is wrong.
 void validate(const SweepProblem& problem);
 
-// Every offset at which B's interest volume can touch A's under some angle (METHOD.md section 4),
+// Every offset at which B's interest volume can touch A's under some angle (docs/method.md section 4),
 // optionally narrowed to [x_min, x_max] x [y_min, y_max] metres.
 PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double voxel, int angles);
 void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x_range, const std::array<double, 2>* y_range);
@@ -83,7 +86,7 @@ struct Solution {
     int i = 0, j = 0, k = 0;
     double x = 0, y = 0, theta_deg = 0;       // theta wrapped to (-180, 180]
     double distance = 0;                      // L = |C^A C'^B|
-    double theta_a_deg = 0, theta_b_deg = 0;  // METHOD.md section 6
+    double theta_a_deg = 0, theta_b_deg = 0;  // docs/method.md section 6
 };
 
 struct SweepResult {

@@ -1,10 +1,10 @@
-#include "sweep/slice_runs.hpp"
+#include "src/sweep/slice_runs.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <limits>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

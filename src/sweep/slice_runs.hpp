@@ -10,8 +10,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "sweep/column_volume.hpp"
-#include "sweep/pose_map.hpp"
+#include "src/sweep/column_volume.hpp"
+#include "src/sweep/pose_map.hpp"
 
 namespace amhv {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Choosing one solution per key segment (METHOD.md section 7, eq. 16-18) by exact dynamic
+// Choosing one solution per key segment (docs/method.md section 7, eq. 16-18) by exact dynamic
 // programming over the chain of key segments, on the CPU host.
 //
 // Scene frame: each object's capture frame is placed in the scene by the editor's placement yaw
@@ -21,6 +21,7 @@ namespace amhv {
 struct ChainSolution {
     int i = 0, j = 0;        // B's root offset from A's root, in voxels of the grid (x = i h, y = j h)
     double theta_rad = 0;    // B's rotation
+    int k = 0;               // its index on the sweep's angle lattice (theta = k step), carried to the edit
 };
 
 struct ChainSegment {

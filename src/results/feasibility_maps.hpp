@@ -1,14 +1,13 @@
 #pragma once
-// Files of a sweep (METHOD.md section 10): the solution group as CSV and the feasibility maps, one
-// FLOAT EXR per sampled angle plus a PNG montage of all angles.
+// The feasibility maps of a sweep (docs/method.md section 10): one FLOAT EXR per sampled angle
+// plus a PNG montage of all angles, for image viewers.
+#include <array>
+#include <cstdint>
 #include <filesystem>
 
-#include "sweep/problem.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv {
-
-// Header x,y,theta_deg,L,thetaA_deg,thetaB_deg; one row per solution in (theta, y, x) order.
-void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions);
 
 // `folder`/angle_KKK.exr: pixel (x, y) of angle k; channel `passed` = how many of contact,
 // dictionary, fidelity, visibility the pose passed in that order (4 = solution), R G B = its colour.

@@ -1,6 +1,6 @@
 #pragma once
 // The exact integer crossing test of the solid voxeliser, shared by the CPU reference and the host
-// side of the Vulkan path. shaders/fixed_raster.glsl mirrors it line for line: keep them in step.
+// side of the Vulkan path. shaders/voxelise_fixed_raster.glsl mirrors it line for line: keep them in step.
 //
 // Coordinates are integers in units of 1/kSubvoxel voxel relative to the grid origin. With at most
 // kMaxGridAxis voxels per axis they stay below 2^17, edge functions below 2^35 and the crossing

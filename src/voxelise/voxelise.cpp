@@ -1,10 +1,10 @@
-#include "core/voxelise.hpp"
+#include "src/voxelise/voxelise.hpp"
 
 #include <cmath>
 
 #include <spdlog/spdlog.h>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "optimise/path_opt.hpp"
+#include "host/paths/path_opt.hpp"
 
 #include <cmath>
 
@@ -8,7 +8,7 @@
 #include <Eigen/SparseCore>
 #include <Eigen/SparseQR>
 
-#include "core/error.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 

@@ -1,4 +1,4 @@
-#include "io/sweep_output.hpp"
+#include "src/results/feasibility_maps.hpp"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -10,17 +10,15 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cmath>
+#include <csetjmp>
 #include <cstdio>
-#include <exception>
-#include <fstream>
 #include <memory>
 
 #include <fmt/format.h>
 
-#include "core/error.hpp"
-#include "core/parallel.hpp"
+#include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 
@@ -58,40 +56,6 @@ std::array<std::uint8_t, 3> outcome_colour(PoseOutcome outcome) {
     }
 }
 
-void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions) {
-    std::ofstream out(path, std::ios::binary);
-    if (!out) fail(path.string(), "cannot create the file");
-    out << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n";
-    // Groups of millions of solutions: chunks are formatted on all cores, then written in order.
-    constexpr std::size_t kChunk = 1 << 16;
-    const std::size_t chunks = (solutions.size() + kChunk - 1) / kChunk;
-    constexpr std::size_t kInFlight = 16;  // chunks formatted at once: bounded memory
-    std::vector<std::string> text(kInFlight);
-    for (std::size_t first = 0; first < chunks; first += kInFlight) {
-        const std::size_t count = std::min(kInFlight, chunks - first);
-        parallel_for(count, [&](std::size_t c) {
-            auto& buffer = text[c];
-            const std::size_t begin = (first + c) * kChunk, end = std::min(solutions.size(), begin + kChunk);
-            buffer.clear();
-            // std::to_chars prints the correctly rounded "%.6f", like fmt, several times faster.
-            constexpr int kRoom = 330;  // the longest fixed-point double with 6 decimals, and a separator
-            char line[6 * kRoom];
-            for (std::size_t i = begin; i < end; ++i) {
-                const Solution& s = solutions[i];
-                const double values[] = {s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg};
-                char* at = line;
-                for (int v = 0; v < 6; ++v) {
-                    at = std::to_chars(at, at + kRoom - 1, values[v], std::chars_format::fixed, 6).ptr;
-                    *at++ = v < 5 ? ',' : '\n';
-                }
-                buffer.append(line, std::size_t(at - line));
-            }
-        });
-        for (std::size_t c = 0; c < count; ++c) out.write(text[c].data(), std::streamsize(text[c].size()));
-    }
-    if (!out) fail(path.string(), "write failed");
-}
-
 namespace {
 
 // The feasibility EXR of angle k: R, G, B (the outcome colours, linear) and `passed`.
@@ -111,7 +75,7 @@ void write_feasibility_exr(const std::filesystem::path& folder, const SweepProbl
     const char* channels[] = {"R", "G", "B", "passed"};
     for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
     auto put = [&](const char* key, const std::string& value) { header.insert(key, Imf::StringAttribute(value)); };
-    put("amhv:theta_deg", fmt::format("{}", describe(problem, 0, 0, k).theta_deg));
+    put("amhv:theta_deg", fmt::format("{}", problem.angle_lattice().wrapped_degrees(k)));
     put("amhv:x_m", fmt::format("column c is x = {} + c * {} m (offset of B's root from A's root)", r.i_first * problem.voxel, problem.voxel));
     put("amhv:y_m", fmt::format("row 0 is y = {} m, each row down {} m less", r.j_last * problem.voxel, problem.voxel));
     put("amhv:passed", "constraints passed in order contact, dictionary, fidelity, visibility; 4 = solution");

@@ -1,4 +1,4 @@
-#include "io/edit_output.hpp"
+#include "src/results/edit_files.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,8 +10,9 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "io/ply_file.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
+#include "src/io/ply_file.hpp"
 
 namespace amhv {
 
@@ -21,13 +22,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 const std::array<std::array<std::uint8_t, 3>, 2> kColour{{{230, 120, 40}, {40, 120, 230}}};
-
-double wrap_degrees(double degrees) {
-    double d = std::fmod(degrees, 360.0);
-    if (d > 180) d -= 360;
-    if (d <= -180) d += 360;
-    return d;
-}
 
 std::string segment_name(const TimelineSegment& s, int index) {
     return s.key ? fmt::format("key {}", s.key) : fmt::format("transition {}", index / 2);
@@ -125,10 +119,10 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
                 {"source", e.source},
                 {"x", e.translation.x()},
                 {"y", e.translation.y()},
-                {"yaw_deg", wrap_degrees(e.yaw * 180 / kPi)},
+                {"yaw_deg", angles::wrap_degrees(angles::degrees(e.yaw))},
                 {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, 0.0}, {0.0, 0.0, 0.0, 1.0}}},
                 {"root", {e.edited_root.x(), e.edited_root.y()}},
-                {"facing_deg", wrap_degrees(e.edited_facing * 180 / kPi)},
+                {"facing_deg", angles::wrap_degrees(angles::degrees(e.edited_facing))},
             };
         }
         frames.push_back(f);

@@ -1,12 +1,12 @@
 #pragma once
-// Files of the edited scene (METHOD.md section 10): per-frame transforms, the transformed meshes of
+// Files of the edited scene (docs/method.md section 10): per-frame transforms, the transformed meshes of
 // every output frame, and a top view of the original and edited root paths.
 #include <filesystem>
 #include <vector>
 
-#include "edit/edit.hpp"
-#include "scene/scene.hpp"
-#include "scene/segment.hpp"
+#include "src/edit/edit.hpp"
+#include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 
 namespace amhv {
 

@@ -1,5 +1,5 @@
 // Exact fixed-point crossing test shared by the voxelisation kernels.
-// It mirrors src/core/fixed_raster.hpp line for line: vertex coordinates are integers in units of
+// It mirrors src/voxelise/fixed_raster.hpp line for line: vertex coordinates are integers in units of
 // 1/SUBVOXEL of a voxel, so every decision below is integer arithmetic and the GPU and the CPU
 // reference agree bit for bit (no float rounding, no FMA contraction).
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require

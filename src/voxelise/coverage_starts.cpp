@@ -1,4 +1,4 @@
-#include "core/coverage_starts.hpp"
+#include "src/voxelise/coverage_starts.hpp"
 
 #include <algorithm>
 #include <cstring>

@@ -7,8 +7,8 @@
 #include <span>
 #include <vector>
 
-#include "core/fixed_raster.hpp"
-#include "core/uninitialised_allocator.hpp"
+#include "src/voxelise/fixed_raster.hpp"
+#include "src/core/uninitialised_allocator.hpp"
 
 namespace amhv::fixed {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Voxelisation of a mesh segment into an aMHV (METHOD.md section 3).
+// Voxelisation of a mesh segment into an aMHV (docs/method.md section 3).
 //
 // The host quantises every frame once (prepare_voxelisation); a Voxeliser backend (the Vulkan
 // kernels or the plain CPU reference) computes solid occupancy of the closed frames by the
@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "core/amhv.hpp"
-#include "core/fixed_raster.hpp"
-#include "core/geometry.hpp"
+#include "src/core/amhv.hpp"
+#include "src/voxelise/fixed_raster.hpp"
+#include "src/core/geometry.hpp"
 
 namespace amhv {
 

@@ -6,8 +6,8 @@
 //                    spans, its cross-sections with the rows' centre lines, fixed::CrossSections),
 //                    and sends each frame's work items in classes of about equally many covered
 //                    columns, so that a subgroup's lanes take their slots together;
-//   voxel_raster.comp writes each crossing's layer and direction into its bucket's next slot;
-//   voxel_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
+//   voxelise_raster.comp writes each crossing's layer and direction into its bucket's next slot;
+//   voxelise_columns.comp sorts each bucket, flips the frame's bit wherever its winding number
 //                    switches between zero and non-zero, and runs an XOR up each column over the
 //                    flips: the occupancy words. Four stages sort buckets by size (in registers
 //                    up to 8, 16 and 32 keys, in the key list beyond), a fifth writes.
@@ -19,8 +19,8 @@
 #include <cstdint>
 #include <memory>
 
-#include "core/voxelise.hpp"
-#include "gpu/compute.hpp"
+#include "src/voxelise/voxelise.hpp"
+#include "src/gpu/compute.hpp"
 
 namespace amhv::gpu {
 
@@ -28,7 +28,7 @@ struct VoxeliserOptions {
     // Largest single storage buffer to use; 0 = the device's maxStorageBufferRange capped at 256 MiB.
     // Tests set it small to force slab and batch splitting.
     std::uint64_t max_buffer_bytes = 0;
-    // Most crossings one column may have in one batch (voxel_columns.comp's sorts stay under
+    // Most crossings one column may have in one batch (voxelise_columns.comp's sorts stay under
     // lavapipe's loop cap); a batch with more is redone with fewer frames, and a single frame with
     // more is an error naming it. Tests lower it.
     std::uint32_t max_column_crossings = 1024;
@@ -61,21 +61,22 @@ public:
     const Plan& last_plan() const { return plan_; }
 
     static constexpr int kWorkgroup = 64;
-    static constexpr std::uint32_t kLargeKeys = 32;    // voxel_columns.comp's LARGE_KEYS
+    static constexpr std::uint32_t kLargeKeys = 32;    // voxelise_columns.comp's LARGE_KEYS
     static constexpr std::uint64_t kKeyPadding = kLargeKeys;
     // Layers per slab at most: with its sorts (about 12k iterations for 1024 crossings)
-    // voxel_columns.comp stays under half lavapipe's silent loop cap of about 65k.
+    // voxelise_columns.comp stays under half lavapipe's silent loop cap of about 65k.
     static constexpr int kMaxSlabLayers = 16384;
 
 private:
+    class Call;  // one call of voxelise_solid, as named steps
     Context& context_;
     VoxeliserOptions options_;
     Kernel raster_;
-    Kernel flip_small_;     // voxel_columns.comp, stage FLIP_SMALL
-    Kernel flip_medium_;    // voxel_columns.comp, stage FLIP_MEDIUM
-    Kernel flip_large_;     // voxel_columns.comp, stage FLIP_LARGE
-    Kernel flip_huge_;      // voxel_columns.comp, stage FLIP_HUGE
-    Kernel write_columns_;  // voxel_columns.comp, stage WRITE
+    Kernel flip_small_;     // voxelise_columns.comp, stage FLIP_SMALL
+    Kernel flip_medium_;    // voxelise_columns.comp, stage FLIP_MEDIUM
+    Kernel flip_large_;     // voxelise_columns.comp, stage FLIP_LARGE
+    Kernel flip_huge_;      // voxelise_columns.comp, stage FLIP_HUGE
+    Kernel write_columns_;  // voxelise_columns.comp, stage WRITE
     Plan plan_;
     // Scratch kept between calls while it stays under kKeptBytes in all.
     static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;

@@ -1,4 +1,4 @@
-#include "optimise/chain_dp.hpp"
+#include "host/choose/chain_dp.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,20 +7,14 @@
 
 #include <Eigen/Geometry>
 
-#include "core/error.hpp"
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
 
 namespace amhv {
 
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-double wrap_radians(double a) {
-    a = std::fmod(a, 2 * std::numbers::pi);
-    if (a > std::numbers::pi) a -= 2 * std::numbers::pi;
-    if (a <= -std::numbers::pi) a += 2 * std::numbers::pi;
-    return a;
-}
 
 Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) { return Eigen::Rotation2Dd(angle) * v; }
 
@@ -29,7 +23,7 @@ double unary(const ChainSegment& s, const ChainWeights& w, int j, int d) {
     const double delta = w.a_rotations_rad[std::size_t(d)];
     const Eigen::Vector2d r(sol.i * w.voxel, sol.j * w.voxel);
     const double facing = (2 - 2 * std::cos(delta)) + (2 - 2 * std::cos(w.yaw_a + delta + sol.theta_rad - w.yaw_b));
-    const double prior = (r - s.prior_offset).squaredNorm() + std::pow(wrap_radians(sol.theta_rad - s.prior_theta_rad), 2);
+    const double prior = (r - s.prior_offset).squaredNorm() + std::pow(angles::wrap_radians(sol.theta_rad - s.prior_theta_rad), 2);
     return w.lambda * facing + w.mu * prior;
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// The placement sweep in compute shaders (METHOD.md sections 4-5). The host turns the volumes into
+// The placement sweep in compute shaders (docs/method.md sections 4-5). The host turns the volumes into
 // column bitsets (sweep/column_volume.hpp) once, then runs the constraints as stages of overlap
 // tests (shaders/sweep_overlap.comp) over batches of poses: contact on every pose of the range,
 // then the dictionary on the poses in contact, fidelity on those, visibility on those. Each stage
@@ -11,8 +11,8 @@
 #include <array>
 #include <cstdint>
 
-#include "gpu/compute.hpp"
-#include "sweep/problem.hpp"
+#include "src/gpu/compute.hpp"
+#include "src/sweep/problem.hpp"
 
 namespace amhv::gpu {
 

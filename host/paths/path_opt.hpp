@@ -1,5 +1,5 @@
 #pragma once
-// Path optimisation of one object's transitional segment (METHOD.md section 8, eq. 19-25), on the
+// Path optimisation of one object's transitional segment (docs/method.md section 8, eq. 19-25), on the
 // CPU host: edited roots and facings that keep the captured accelerations and (at low speed) the
 // captured velocities, between edited boundaries fixed by the key segments.
 //
@@ -35,7 +35,7 @@ struct PathProblem {
     std::optional<PathEnd> first, last;  // the fixed edited boundaries (at least one)
     // Beyond the paper: the turn (radians) the edit gives the object at each frame. The captured
     // accelerations and velocities are compared after this turn, so a performer turned by the edit
-    // keeps walking the way it faces. Empty: no turn, exactly METHOD.md's f_a and f_v.
+    // keeps walking the way it faces. Empty: no turn, exactly docs/method.md's f_a and f_v.
     std::vector<double> turns;
 };
 

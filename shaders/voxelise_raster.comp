@@ -9,7 +9,7 @@
 // conservative cross-sections with the rows, which the runs are), so the slots never run out.
 // Work per invocation is at most 32 mask bits or RUN_COLUMNS columns: well under lavapipe's loop cap.
 #extension GL_GOOGLE_include_directive : require
-#include "fixed_raster.glsl"
+#include "voxelise_fixed_raster.glsl"
 
 layout(local_size_x_id = 0) in;
 const int RUN_COLUMNS = 64;  // voxelise_vulkan.cpp's kRunColumns

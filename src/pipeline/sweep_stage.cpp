@@ -1,0 +1,159 @@
+#include "src/pipeline/sweep_stage.hpp"
+
+#include <chrono>
+#include <iostream>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "src/core/clock.hpp"
+#include "src/core/error.hpp"
+#include "src/results/edit_files.hpp"
+#include "src/results/feasibility_maps.hpp"
+#include "src/results/solutions_csv.hpp"
+
+namespace amhv::pipeline {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A one-line progress bar on stderr, only when stderr is a terminal.
+class ProgressBar {
+public:
+    explicit ProgressBar(std::string label) : label_(std::move(label)), enabled_(isatty(STDERR_FILENO) == 1) {}
+    ~ProgressBar() {
+        if (enabled_ && drawn_) std::cerr << "\r\033[K" << std::flush;
+    }
+    void operator()(int done, int total) {
+        if (!enabled_ || total <= 0) return;
+        const int width = 30, filled = done * width / total;
+        std::cerr << fmt::format("\r{} [{}{}] {}/{} angles", label_, std::string(std::size_t(filled), '#'),
+                                 std::string(std::size_t(width - filled), '.'), done, total)
+                  << std::flush;
+        drawn_ = true;
+    }
+
+private:
+    std::string label_;
+    bool enabled_;
+    bool drawn_ = false;
+};
+
+KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, std::vector<Solution> solutions) {
+    KeySweep k;
+    k.index = segment.index;
+    k.root_a = problem.a.root;
+    k.root_b = problem.b.root;
+    k.facing_a = problem.a.facing;
+    k.facing_b = problem.b.facing;
+    k.solutions = std::move(solutions);
+    k.poses_tested = problem.range.size();
+    k.rejected = result.rejected;
+    return k;
+}
+
+void report_segment(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, double sweep_seconds) {
+    if (result.solutions == 0)
+        std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}\n", segment.index, segment.type.name(),
+                                 problem.range.size(), rejection_counts(result.rejected));
+    else
+        std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}\n", segment.index,
+                                 segment.type.name(), result.solutions, problem.range.size(), sweep_seconds, rejection_counts(result.rejected));
+}
+
+}  // namespace
+
+SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper, const fs::path& out,
+                           const SweepStageOptions& options) {
+    SweepStage stage;
+    for (const KeySegment& segment : scene.segments) {
+        if (options.only_segment && segment.index != options.only_segment) continue;
+        results::Json timings;
+        auto t0 = std::chrono::steady_clock::now();
+        SegmentBuild build = build_segment(scene, segment, a, b, voxeliser);
+        timings["mhv"] = seconds_since(t0);
+        const SweepProblem& problem = build.problem;
+
+        t0 = std::chrono::steady_clock::now();
+        ProgressBar bar(fmt::format("segment {} ({})", segment.index, segment.type.name()));
+        sweeper.progress = [&bar](int done, int total) { bar(done, total); };
+        SweepResult result = sweeper.sweep(problem);
+        sweeper.progress = nullptr;
+        timings["sweep"] = seconds_since(t0);
+        if (const auto stages = sweeper.stage_seconds(); stages.size() == 4)
+            timings["sweep_stages"] = {{"contact", stages[0]}, {"dictionary", stages[1]}, {"fidelity", stages[2]}, {"visibility", stages[3]}};
+
+        t0 = std::chrono::steady_clock::now();
+        const auto dir = out / fmt::format("segment_{}", segment.index);
+        fs::create_directories(dir);
+        auto list = solutions(problem, result);
+        write_solutions_csv(dir / "solutions.csv", list);
+        const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0};
+        timings["output"] = seconds_since(t0);
+        stage.mhv_seconds += timings["mhv"].get<double>();
+        stage.sweep_seconds += timings["sweep"].get<double>();
+        stage.output_seconds += timings["output"].get<double>();
+
+        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, list, files,
+                                                             options.timings ? timings : results::Json(nullptr)));
+        stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(list)));
+        report_segment(segment, problem, result, timings["sweep"].get<double>());
+    }
+    return stage;
+}
+
+SweepStage read_sweep_stage(const fs::path& dir, const Scene& scene) {
+    results::SweepRecord record = results::read_sweep_folder(dir, scene);
+    SweepStage stage;
+    stage.sweeps = std::move(record.sweeps);
+    stage.segments = std::move(record.segments);
+    return stage;
+}
+
+SweepStage sweep_scene(const Scene& scene, Backends& backends, const fs::path& out, const SweepStageOptions& options,
+                       std::chrono::steady_clock::time_point start) {
+    ObjectSource a(scene.a), b(scene.b);
+    results::Json json = results::result_header(scene, backends.backend, backends.device);
+    SweepStage stage = run_sweep_stage(scene, a, b, backends.voxeliser, backends.sweeper, out, options);
+    json["segments"] = stage.segments;
+    if (options.timings) json["timings_s"] = {{"total", seconds_since(start)}};
+    results::write_json_file(out / "result.json", json);
+    return stage;
+}
+
+EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::path& out, const EditRunOptions& options,
+                           std::chrono::steady_clock::time_point start) {
+    ObjectSource a(scene.a), b(scene.b);
+    results::Json json = results::result_header(scene, backends.backend, backends.device);
+    json["from_sweep"] = options.from_sweep.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.from_sweep);
+
+    // aMHVs and sweep (or the groups of an earlier sweep).
+    SweepStage stage = options.from_sweep.empty()
+                           ? run_sweep_stage(scene, a, b, backends.voxeliser, backends.sweeper, out, {0, options.maps, options.timings})
+                           : read_sweep_stage(options.from_sweep, scene);
+
+    EditOptions edit_options;
+    edit_options.allow_empty = options.allow_empty;
+    EditResult edit = edit_scene(scene, stage.sweeps, a, b, backends.voxeliser, edit_options);
+
+    auto t0 = std::chrono::steady_clock::now();
+    write_transforms_json(out / "transforms.json", scene, edit);
+    results::EditFiles files;
+    files.frames = options.frames;
+    files.mesh_files = options.frames ? write_scene_frames(out / "frames", edit, a, b) : 0;
+    write_paths_picture(out / "paths.svg", out / "paths.png", edit);
+    files.view_frames = write_key_views(out / "views", edit, a, b);
+
+    json["segments"] = stage.segments;
+    results::add_edit(json, edit, files);
+    const double output_seconds = seconds_since(t0) + stage.output_seconds;
+    if (options.timings)
+        json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
+                             {"path", edit.path_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
+    results::write_json_file(out / "result.json", json);
+    return edit;
+}
+
+}  // namespace amhv::pipeline

@@ -1,0 +1,228 @@
+#include "src/results/result_json.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include "src/core/angles.hpp"
+#include "src/core/error.hpp"
+#include "src/results/solutions_csv.hpp"
+
+namespace amhv::results {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+// The true pose of B relative to A in this key segment (docs/method.md section 4's form) and
+// whether the group holds a solution within one voxel on x and y and one angle step of it.
+Json truth_json(const Scene& scene, const SweepProblem& problem, const std::vector<Solution>& group) {
+    const Placement& t = *scene.truth;
+    const double yaw = angles::radians(t.yaw_deg);
+    const Eigen::Vector2d ca(problem.a.root.x(), problem.a.root.y()), cb(problem.b.root.x(), problem.b.root.y());
+    const Eigen::Vector2d offset = Eigen::Rotation2Dd(yaw) * cb + Eigen::Vector2d(t.x, t.y) - ca;
+    const double h = problem.voxel, step = problem.angle_step_deg;
+    double nearest = std::numeric_limits<double>::infinity();
+    bool within = false;
+    for (const Solution& s : group) {
+        const double turn = angles::degrees_apart(s.theta_deg, t.yaw_deg);
+        const double dx = std::abs(s.x - offset.x()), dy = std::abs(s.y - offset.y());
+        within = within || (dx <= h + 1e-9 && dy <= h + 1e-9 && turn <= step + 1e-9);
+        if (turn <= step + 1e-9) nearest = std::min(nearest, std::hypot(dx, dy));
+    }
+    return {{"x", offset.x()},
+            {"y", offset.y()},
+            {"theta_deg", std::remainder(t.yaw_deg, 360.0)},
+            {"in_group", within},
+            {"nearest_solution_m", std::isinf(nearest) ? nlohmann::json(nullptr) : nlohmann::json(nearest)}};
+}
+
+Json solution_json(const Solution& s) {
+    return {{"x", s.x}, {"y", s.y}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
+}
+
+// views/key_N.png and the output frame each shows.
+Json views_json(const std::vector<int>& frames) {
+    Json views = Json::array();
+    for (std::size_t i = 0; i < frames.size(); ++i) views.push_back({{"file", fmt::format("views/key_{}.png", i + 1)}, {"output_frame", frames[i]}});
+    return views;
+}
+
+// The entry of key segment `key` in result.json, checked against the scene.
+const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySegment& key, const std::string& where) {
+    const nlohmann::json* s = nullptr;
+    for (const auto& item : segments)
+        if (item.at("index").get<int>() == key.index) s = &item;
+    if (!s) fail(where, "has no key segment {}: sweep every segment (no --segment) before --from-sweep", key.index);
+    if (s->at("frames_a").get<std::array<int, 2>>() != key.a || s->at("frames_b").get<std::array<int, 2>>() != key.b ||
+        s->at("type").get<std::string>() != key.type.name() || s->at("tolerance").get<int>() != key.tolerance ||
+        s->at("visibility").at("enabled").get<bool>() != key.visibility.enabled ||
+        s->at("visibility").at("half_angle_deg").get<double>() != key.visibility.half_angle_deg ||
+        s->at("interest").at("A").get<std::string>() != key.interest_a.describe() ||
+        s->at("interest").at("B").get<std::string>() != key.interest_b.describe() ||
+        s->at("fidelity").at("A").get<std::string>() != key.fidelity_a.describe() ||
+        s->at("fidelity").at("B").get<std::string>() != key.fidelity_b.describe())
+        fail(where, "key segment {} was swept with other frames, type, tolerance, visibility or parts than the scene says", key.index);
+    return *s;
+}
+
+// The sampling result.json was swept with must be the scene's.
+void check_sampling(const nlohmann::json& p, const Scene& scene, const std::string& where) {
+    if (p.at("voxel_m").get<double>() != scene.sampling.voxel || p.at("angle_step_deg").get<double>() != scene.sampling.angle_step_deg)
+        fail(where, "was swept at {} m / {} deg but the scene asks for {} m / {} deg", p.at("voxel_m").get<double>(),
+             p.at("angle_step_deg").get<double>(), scene.sampling.voxel, scene.sampling.angle_step_deg);
+    auto range_matches = [&](const char* key, const std::optional<std::array<double, 2>>& range) {
+        const auto& node = p.at(key);
+        return node.is_null() ? !range : (range && node.get<std::array<double, 2>>() == *range);
+    };
+    if (!range_matches("x_range_m", scene.sampling.x_range) || !range_matches("y_range_m", scene.sampling.y_range))
+        fail(where, "was swept over another x_range / y_range than the scene's");
+}
+
+KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key) {
+    KeySweep k;
+    k.index = key.index;
+    const auto ra = s.at("root_m").at("A").get<std::array<double, 3>>(), rb = s.at("root_m").at("B").get<std::array<double, 3>>();
+    k.root_a = Vec3(ra[0], ra[1], ra[2]);
+    k.root_b = Vec3(rb[0], rb[1], rb[2]);
+    const auto fa = s.at("facing").at("A").get<std::array<double, 2>>(), fb = s.at("facing").at("B").get<std::array<double, 2>>();
+    k.facing_a = Eigen::Vector2d(fa[0], fa[1]);
+    k.facing_b = Eigen::Vector2d(fb[0], fb[1]);
+    k.poses_tested = s.at("poses_tested").get<std::uint64_t>();
+    const auto& rej = s.at("rejected");
+    k.rejected = {rej.at("contact").get<std::uint64_t>(), rej.at("dictionary").get<std::uint64_t>(), rej.at("fidelity").get<std::uint64_t>(),
+                  rej.at("visibility").get<std::uint64_t>()};
+    return k;
+}
+
+}  // namespace
+
+Json result_header(const Scene& scene, const std::string& backend, const std::string& device) {
+    Json json;
+    json["program"] = std::string("amhv ") + AMHV_VERSION;
+    json["scene"] = scene.file.string();
+    json["backend"] = backend;
+    json["device"] = device;
+    const Weights& w = scene.weights;
+    json["parameters"] = {{"voxel_m", scene.sampling.voxel},
+                          {"angle_step_deg", scene.sampling.angle_step_deg},
+                          {"angles", scene.sampling.angles()},
+                          {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
+                          {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
+                          {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+    return json;
+}
+
+Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
+                        const std::vector<Solution>& solutions, const SegmentFiles& files, const Json& timings) {
+    Json s;
+    s["index"] = segment.index;
+    s["type"] = segment.type.name();
+    s["frames_a"] = {segment.a[0], segment.a[1]};
+    s["frames_b"] = {segment.b[0], segment.b[1]};
+    s["normalised_frames"] = problem.frames();
+    s["poses_tested"] = problem.range.size();
+    s["solutions"] = result.solutions;
+    s["rejected"] = {{"contact", result.rejected[0]}, {"dictionary", result.rejected[1]}, {"fidelity", result.rejected[2]},
+                     {"visibility", result.rejected[3]}};
+    s["range"] = {{"x_m", {problem.range.i_first * problem.voxel, problem.range.i_last * problem.voxel}},
+                  {"y_m", {problem.range.j_first * problem.voxel, problem.range.j_last * problem.voxel}},
+                  {"angles", problem.range.angles}};
+    s["root_m"] = {{"A", vec3(problem.a.root)}, {"B", vec3(problem.b.root)}};
+    s["facing"] = {{"A", {problem.a.facing.x(), problem.a.facing.y()}}, {"B", {problem.b.facing.x(), problem.b.facing.y()}}};
+    s["tolerance"] = segment.tolerance;
+    s["visibility"] = {{"enabled", segment.visibility.enabled}, {"half_angle_deg", segment.visibility.half_angle_deg},
+                       {"range_m", segment.visibility.range}};
+    s["interest"] = {{"A", segment.interest_a.describe()}, {"B", segment.interest_b.describe()}};
+    s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
+    s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
+                  {"feasibility", files.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
+                  {"feasibility_files", files.feasibility_files}};
+    if (scene.truth) s["truth"] = truth_json(scene, problem, solutions);
+    if (!timings.is_null()) s["timings_s"] = timings;
+    return s;
+}
+
+void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
+    for (std::size_t i = 0; i < edit.keys.size(); ++i) {
+        const KeyEdit& k = edit.keys[i];
+        auto& s = json["segments"][i];
+        s["chosen"] = solution_json(k.chosen);
+        s["chosen"]["captured_placement"] = k.captured;
+        if (s.contains("truth")) {
+            const double dx = k.chosen.x - s["truth"]["x"].get<double>(), dy = k.chosen.y - s["truth"]["y"].get<double>();
+            s["truth"]["chosen_error_m"] = std::hypot(dx, dy);
+            s["truth"]["chosen_error_deg"] = angles::degrees_apart(k.chosen.theta_deg, s["truth"]["theta_deg"].get<double>());
+        }
+        s["edit"] = {{"a_rotation_deg", angles::degrees(k.a_rotation_rad)},
+                     {"a_translation_m", {k.a_translation.x(), k.a_translation.y()}},
+                     {"root_a_m", {k.root_a.x(), k.root_a.y()}},
+                     {"root_b_m", {k.root_b.x(), k.root_b.y()}},
+                     {"yaw_a_deg", angles::degrees(k.yaw_a)},
+                     {"yaw_b_deg", angles::degrees(k.yaw_b)}};
+    }
+    json["dp"] = {{"cost", edit.choice.cost}, {"unary", edit.choice.unary}, {"pairwise", edit.choice.pairwise}};
+    Json paths = Json::array();
+    for (const PathReport& p : edit.paths)
+        paths.push_back({{"segment", fmt::format("transition {}", p.timeline_segment / 2)},
+                         {"object", p.object == 0 ? "A" : "B"},
+                         {"frames", p.frames},
+                         {"root_residual", p.root_cost},
+                         {"facing_residual", p.facing_cost},
+                         {"max_shift_m", p.max_shift_m}});
+    json["paths"] = paths;
+    json["output"] = {{"frames", edit.timeline.length()},
+                      {"transforms", "transforms.json"},
+                      {"meshes", files.frames ? nlohmann::json("frames/NNNN.ply") : nlohmann::json(nullptr)},
+                      {"mesh_files", files.mesh_files},
+                      {"paths", {"paths.svg", "paths.png"}},
+                      {"views", views_json(files.view_frames)}};
+}
+
+SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
+    const fs::path file = dir / "result.json";
+    const std::string where = file.string();
+    std::ifstream in(file);
+    if (!in) fail(where, "cannot open: --from-sweep needs the folder written by `amhv sweep` (or `amhv edit`)");
+    nlohmann::json json;
+    try {
+        json = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::exception& e) {
+        fail(where, "is not valid JSON ({})", e.what());
+    }
+    SweepRecord record;
+    const angles::AngleLattice lattice{scene.sampling.angle_step_deg, scene.sampling.angles()};
+    try {
+        check_sampling(json.at("parameters"), scene, where);
+        for (const KeySegment& key : scene.segments) {
+            const nlohmann::json& s = matching_entry(json.at("segments"), key, where);
+            KeySweep k = key_sweep_of(s, key);
+            const fs::path csv = dir / fmt::format("segment_{}", key.index) / "solutions.csv";
+            k.solutions = read_solutions_csv(csv, scene.sampling.voxel, lattice);
+            if (k.solutions.size() != s.at("solutions").get<std::uint64_t>())
+                fail(csv.string(), "has {} rows but result.json says the group has {} solutions", k.solutions.size(),
+                     s.at("solutions").get<std::uint64_t>());
+            record.segments.push_back(Json::parse(s.dump()));
+            record.sweeps.push_back(std::move(k));
+        }
+    } catch (const nlohmann::json::exception& e) {
+        fail(where, "is not a sweep's result.json ({})", e.what());
+    }
+    return record;
+}
+
+void write_json_file(const fs::path& path, const Json& json) {
+    std::ofstream out(path);
+    if (!out) fail(path.string(), "cannot create the file");
+    out << json.dump(2) << '\n';
+    out.close();
+    if (!out) fail(path.string(), "could not be written in full (disk full?)");
+}
+
+}  // namespace amhv::results

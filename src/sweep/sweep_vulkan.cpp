@@ -1,0 +1,161 @@
+// VulkanSweeper: one sweep is a SweepRun (sweep_vulkan_run.hpp); this file holds its batches:
+// contact and the dictionary on every pose of a batch of angles, then fidelity and visibility on
+// the poses that are left, and the outcome of every pose.
+#include "src/sweep/sweep_vulkan.hpp"
+
+#include <chrono>
+
+#include "src/sweep/sweep_vulkan_run.hpp"
+#include "shaders/sweep_map.spv.h"
+#include "shaders/sweep_overlap.spv.h"
+
+namespace amhv::gpu {
+
+using namespace sweep_detail;
+
+VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
+    : context_(context),
+      options_(options),
+      overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
+      map_(context, sweep_map_spv, 4, sizeof(MapParams), {kWorkgroup}) {}
+
+std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
+
+SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
+    validate(problem);
+    stats_ = {};
+    SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress});
+    return run.run();
+}
+
+namespace sweep_detail {
+
+SweepResult SweepRun::run() {
+    result_.range = range_;
+    result_.outcomes.assign(range_.size(), PoseOutcome::FailsContact);
+    if (range_.size() == 0) {
+        result_.count();
+        return result_;
+    }
+    size_batches();
+    for (int angle_first = 0; angle_first < range_.angles; angle_first += angles_per_batch_) {
+        sweep_batch(angle_first);
+        if (tools_.progress) tools_.progress(std::min(angle_first + angles_per_batch_, range_.angles), range_.angles);
+    }
+    result_.count();
+    return std::move(result_);
+}
+
+void SweepRun::lap(int stage) {
+    const auto now = std::chrono::steady_clock::now();
+    tools_.stats.seconds_per_stage[std::size_t(stage)] += std::chrono::duration<double>(now - clock_).count();
+    clock_ = now;
+}
+
+// One batch of angles through every stage; each stage's wall time, host work included, goes to
+// its entry of SweepStats::seconds_per_stage.
+void SweepRun::sweep_batch(int angle_first) {
+    const int batch_angles = std::min(angles_per_batch_, range_.angles - angle_first);
+    tools_.stats.poses_per_stage[0] += per_angle_ * std::uint64_t(batch_angles);
+    clock_ = std::chrono::steady_clock::now();
+    std::vector<Pose> survivors =
+        tools_.options.maps ? contact_and_dictionary_by_maps(angle_first, batch_angles) : contact_pose_by_pose(angle_first, batch_angles);
+    for (int stage = 1; stage < 4; ++stage) {
+        if (!tools_.options.maps || stage > 1) tools_.stats.poses_per_stage[std::size_t(stage)] += survivors.size();
+        // With maps, the lateral pairs' dictionary is decided by the required maps already.
+        if (!(tools_.options.maps && stage == 1 && type_.lateral_pair())) survivors = later_stage(stage, std::move(survivors), angle_first, batch_angles);
+        lap(stage);
+    }
+    for (const auto& p : survivors) result_.outcomes[outcome_index(p)] = PoseOutcome::Solution;
+}
+
+// Contact by its map on every pose of the batch, then the required dictionary maps on the poses
+// in contact. Returns the poses that pass both; the rest get their outcome.
+std::vector<Pose> SweepRun::contact_and_dictionary_by_maps(int angle_first, int batch_angles) {
+    const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
+    const Rows all_rows(std::size_t(batch_angles), {0, height_ - 1});
+    const auto contact = run_map(required_maps_[0].front(), 0, angle_first, batch_angles, all_rows, nullptr);
+    lap(0);  // the dictionary maps count as the dictionary's time
+    Rows contact_rows(std::size_t(batch_angles), {height_, -1});
+    for (std::uint64_t p = 0; p < batch_poses; ++p)
+        if (contact[p]) {
+            auto& r = contact_rows[std::size_t(p / per_angle_)];
+            const std::int32_t j = std::int32_t(p % per_angle_ / std::uint64_t(width_));
+            r = {std::min(r[0], j), std::max(r[1], j)};
+        }
+    Meets dictionary;
+    for (MapTest& test : required_maps_[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
+    std::vector<Pose> survivors;
+    for (std::uint64_t p = 0; p < batch_poses; ++p) {
+        if (!contact[p]) continue;
+        ++tools_.stats.poses_per_stage[1];
+        const Pose pose = implicit_pose(angle_first, p);
+        if (passes_all(dictionary, p)) survivors.push_back(pose);
+        else result_.outcomes[outcome_index(pose)] = PoseOutcome::FailsDictionary;
+    }
+    return survivors;
+}
+
+// Contact on every pose of the batch: by block where blocks are on, then pose by pose.
+std::vector<Pose> SweepRun::contact_pose_by_pose(int angle_first, int batch_angles) {
+    std::vector<Pose> survivors;
+    if (block_ > 1) {
+        std::vector<Pose> bases;
+        for (int k = angle_first; k < angle_first + batch_angles; ++k)
+            for (int bj = 0; bj < blocks_y_; ++bj)
+                for (int bi = 0; bi < blocks_x_; ++bi) bases.push_back({k, range_.i_first + bi * block_, range_.j_first + bj * block_, 0});
+        const std::vector<Verdict> verdicts = block_verdicts(0, bases);
+        std::vector<Pose> candidates;
+        for (std::size_t b = 0; b < bases.size(); ++b) {
+            if (verdicts[b] == Verdict::Fail) continue;
+            for (int j = bases[b][2]; j < std::min(bases[b][2] + block_, range_.j_last + 1); ++j)
+                for (int i = bases[b][1]; i < std::min(bases[b][1] + block_, range_.i_last + 1); ++i) candidates.push_back({bases[b][0], i, j, 0});
+        }
+        tools_.stats.pose_tests_per_stage[0] += candidates.size();
+        const auto meets = run_stage(stages_[0], &candidates, 0, 0);
+        for (std::size_t p = 0; p < candidates.size(); ++p)
+            if (passes_all(meets, p)) survivors.push_back(candidates[p]);
+    } else {
+        const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
+        tools_.stats.pose_tests_per_stage[0] += batch_poses;
+        const auto meets = run_stage(stages_[0], nullptr, batch_poses, angle_first);
+        for (std::uint64_t p = 0; p < batch_poses; ++p)
+            if (passes_all(meets, p)) survivors.push_back(implicit_pose(angle_first, p));
+    }
+    lap(0);
+    return survivors;
+}
+
+// Stage 1..3 on the survivors of the stage before, by maps where the cost model says they pay off,
+// else pose by pose. Returns the poses that pass; the rest get this stage's outcome.
+std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles) {
+    const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
+    std::vector<std::uint8_t> passes;
+    Rows rows(std::size_t(batch_angles), {height_, -1});
+    std::vector<std::uint8_t> candidates(batch_poses, 0);
+    for (const Pose& q : survivors) {
+        auto& r = rows[std::size_t(q[0] - angle_first)];
+        r = {std::min(r[0], q[2] - range_.j_first), std::max(r[1], q[2] - range_.j_first)};
+        candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
+    }
+    if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles, rows, candidates)) {
+        Meets meets;
+        for (MapTest& test : optional_maps_[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates));
+        passes.resize(survivors.size());
+        // The maps hold the batch's poses in outcome order, starting at angle_first.
+        for (std::size_t p = 0; p < survivors.size(); ++p)
+            passes[p] = passes_all(meets, outcome_index(survivors[p]) - std::size_t(angle_first) * std::size_t(per_angle_));
+    } else {
+        passes = decide(stage, survivors, angle_first, batch_angles);
+    }
+    std::vector<Pose> next;
+    for (std::size_t p = 0; p < survivors.size(); ++p) {
+        if (passes[p]) next.push_back(survivors[p]);
+        else result_.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
+    }
+    return next;
+}
+
+}  // namespace sweep_detail
+
+}  // namespace amhv::gpu

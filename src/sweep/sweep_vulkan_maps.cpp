@@ -1,0 +1,271 @@
+// Overlap maps of the Vulkan sweep (shaders/sweep_map.comp): one test decided for every offset of
+// an angle at once from pairs of slice runs, in passes over the z slices, coarse to fine, and only
+// where poses are in play.
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <optional>
+
+#include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
+#include "src/sweep/sweep_vulkan_run.hpp"
+
+namespace amhv::gpu::sweep_detail {
+
+namespace {
+
+// The overlap-map pass of z slice `z` out of `passes`: coarse to fine, slices whose index has
+// more trailing zeros go first. With 5 passes: every 16th slice, then the slices halfway between
+// them (as many again), then an eighth, a quarter and the remaining half of all slices. Each pass
+// spans the whole height, so early passes find most overlaps with few pairs.
+int pass_of(int z, int passes) {
+    const int last = passes - 1;
+    for (int p = 0; p < last; ++p)
+        if (z % (1 << (last - p)) == 0) return p;
+    return last;
+}
+
+// Counts of the poses in play over rows rows[0] .. rows[1] (2D prefix sums of `open`, one row of
+// `width` poses per j), so that a box of offsets is tested for poses in play in constant time.
+void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, std::array<std::int32_t, 2> rows, int width, int height) {
+    const std::size_t stride = std::size_t(width) + 1;
+    // Only the rows in play are ever queried: prefix rows rows[0] .. rows[1] + 1.
+    pruner.prefix.resize(stride * (std::size_t(height) + 1));
+    std::fill_n(pruner.prefix.begin() + std::ptrdiff_t(std::size_t(rows[0]) * stride), stride, 0u);
+    for (int j = rows[0]; j <= rows[1]; ++j) {
+        const std::uint8_t* row_open = open + std::size_t(j) * std::size_t(width);
+        const std::uint32_t* above = pruner.prefix.data() + std::size_t(j) * stride;
+        std::uint32_t* below = pruner.prefix.data() + (std::size_t(j) + 1) * stride;
+        std::uint32_t row_count = 0;
+        below[0] = 0;
+        for (int i = 0; i < width; ++i) {
+            row_count += row_open[i];
+            below[i + 1] = above[i + 1] + row_count;
+        }
+    }
+}
+
+}  // namespace
+
+// Cuts one angle's pulled runs for a map test (sorted by key), cut to the columns that can reach
+// the rows in play. Returns the longest run.
+int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows,
+                              std::vector<SliceRun>& out) const {
+    if (rows[0] > rows[1] || test.runs.runs.empty()) return 0;
+    const auto clip = pulled_clip(*test.fixed, range_.i_first, range_.i_last, range_.j_first + rows[0], range_.j_first + rows[1]);
+    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clip, out);
+}
+
+// Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
+// where the fixed runs at its key lie and, where only some poses are in play (`open`: per pose
+// of the angle, in outcome order; null: all), the band from the first to the last row whose
+// fixed runs' hull, moved by the run, holds a pose in play (a pair can only set bits inside it).
+// Runs that reach none are dropped. The map is then exact on the poses in play, the only ones
+// read of it (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in
+// play). A box test (2D prefix sums of the poses in play) first drops most runs cheaply.
+// Returns the pairs of runs the kernel will visit.
+std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows,
+                                          const std::vector<SliceRun>& runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
+    std::uint64_t pairs = 0;
+    if (rows[0] > rows[1] || runs.empty()) return pairs;
+    const std::size_t stride = std::size_t(width_) + 1;
+    if (open) count_poses_in_play(pruner, open, rows, width_, height_);
+    // Poses in play in columns i0..i1 and rows j0..j1.
+    auto in_play = [&](int i0, int i1, int j0, int j1) {
+        const auto at = [&](int j, int i) { return pruner.prefix[std::size_t(j) * stride + std::size_t(i)]; };
+        return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
+    };
+    const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
+    for (const SliceRun& run : runs) {
+        const std::int32_t fixed_key = run.key % keys_per_angle;
+        const auto& box = test.runs.key_boxes[std::size_t(fixed_key)];
+        if (box[0] > box[1]) continue;
+        // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
+        int j0 = std::max(rows[0], box[2] - run.y - range_.j_first), j1 = std::min(rows[1], box[3] - run.y - range_.j_first);
+        if (j0 > j1) continue;
+        if (open) {
+            const int i0 = std::max(0, box[0] - run.x_last - range_.i_first), i1 = std::min(width_ - 1, box[1] - run.x_first - range_.i_first);
+            if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
+            // The first and last rows where a pose in play lies within reach of the fixed row
+            // at the other end: its runs' hull, moved by this run.
+            const auto* hulls = test.runs.row_hulls.data() + test.runs.row_hull_first[std::size_t(fixed_key)];
+            int reach_first = j1 + 1, reach_last = j0 - 1;
+            for (int j = j0; j <= j1; ++j) {
+                const auto& hull = hulls[run.y + range_.j_first + j - box[2]];
+                if (hull[0] > hull[1]) continue;
+                const int h0 = std::max(0, hull[0] - run.x_last - range_.i_first), h1 = std::min(width_ - 1, hull[1] - run.x_first - range_.i_first);
+                if (h0 > h1 || in_play(h0, h1, j, j) == 0) continue;
+                reach_first = std::min(reach_first, j), reach_last = j;
+            }
+            if (reach_first > reach_last) continue;
+            j0 = reach_first, j1 = reach_last;
+        }
+        const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
+        const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
+        const auto from = std::lower_bound(key_begin, key_end, run.y + range_.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
+        const auto to = std::upper_bound(from, key_end, run.y + range_.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
+        pairs += std::uint64_t(to - from);
+        out.push_back({run.y, std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16, run.key,
+                       std::uint32_t(j0) | std::uint32_t(j1) << 16});
+    }
+    return pairs;
+}
+
+// Computes the map on the rows `rows[a]` of each angle a of the batch and, where `candidates` is
+// given (per pose of the batch), exactly only on those poses. The map goes in passes over the z
+// slices, coarse to fine (pass_of): a pose that a pass decides (an overlap found) leaves play, so
+// later passes skip the runs that reach only decided poses. For contact a sixteenth of the slices
+// finds most overlaps, and the rest of the runs reach little that is new.
+std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
+                                            const std::vector<std::uint8_t>* candidates) {
+    // Pulled runs' x is packed in 16 bits relative to pulled_x0.
+    const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width_;
+    if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
+    const int maps = test.maps_per_angle();
+    // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
+    const int passes = test.want != Want::EveryFrame ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
+    // The poses in play not decided yet; without candidates, every pose once the first pass is in.
+    std::vector<std::uint8_t> open;
+    if (candidates) open = *candidates;
+    Rows open_rows = rows;  // per angle: the rows j with poses in play
+    // Host work per angle, on all cores while the device waits.
+    auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
+    // Per angle and pass: the runs of the pass's z slices (pass_of), in key order.
+    std::vector<std::vector<std::vector<SliceRun>>> slice_runs_of(static_cast<std::size_t>(batch_angles));
+    std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
+    for_each_angle([&](int a) {
+        auto& by_pass = slice_runs_of[std::size_t(a)];
+        by_pass.resize(std::size_t(passes));
+        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], by_pass[0]);
+        if (passes == 1) return;
+        std::vector<SliceRun> all = std::move(by_pass[0]);
+        by_pass[0].clear();
+        for (const SliceRun& run : all) by_pass[std::size_t(pass_of(run.key % test.runs.zbits, passes))].push_back(run);
+    });
+    const int longest = *std::max_element(longest_of.begin(), longest_of.end());
+    const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
+    ensure_host_capacity(tools_.context, map_words_, map_bytes);
+    sequence_.fill(*map_words_, map_bytes, 0u);
+    // The clear must land before the runs OR their intervals in.
+    sequence_.barrier();
+    ++tools_.stats.maps_per_stage[std::size_t(stage)];
+    for (int pass = 0; pass < passes; ++pass) {
+        // Each angle's runs come sorted by key and keys grow with the angle, so joining them in
+        // angle order sorts the batch: neighbouring invocations with the same key walk the same
+        // fixed runs (uniform loops and loads across a subgroup).
+        std::vector<std::vector<PulledRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
+        std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
+        for_each_angle([&](int a) {
+            thread_local PulledPruner pruner;
+            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)][std::size_t(pass)],
+                                                         open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, angle_runs_of[std::size_t(a)]);
+        });
+        std::vector<PulledRun> runs;
+        std::size_t total_runs = 0;
+        for (int a = 0; a < batch_angles; ++a) {
+            total_runs += angle_runs_of[std::size_t(a)].size();
+            tools_.stats.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
+        }
+        runs.reserve(total_runs);
+        for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
+        tools_.stats.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
+        dispatch_map_pass(test, std::move(runs), longest);
+        if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
+    }
+    return read_map(test, batch_angles);
+}
+
+// ORs one pass's pulled runs into the maps and waits for them.
+void SweepRun::dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int longest) {
+    std::optional<BoundBuffers> set;  // lives until the submit below has finished
+    if (!runs.empty()) {
+        const std::uint32_t budget = tools_.options.loop_budget;
+        // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
+        const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
+        if (search + per_run > budget)
+            fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
+        const int runs_per_chunk = int((budget - search) / per_run);
+        const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
+        const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
+        if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
+            fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
+        ensure_host_capacity(tools_.context, pulled_, runs.size() * sizeof(PulledRun));
+        std::memcpy(pulled_->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(PulledRun));
+        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled_.get(), map_words_.get()}));
+        const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
+                               range_.i_first, range_.j_first, width_, height_, row_words_,
+                               test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
+                               test.pulled_x0};
+        tools_.stats.work_items += items;
+        sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
+    }
+    // The host reads the maps after the fence.
+    sequence_.barrier_to_host();
+    sequence_.submit_and_wait();
+    ++tools_.stats.submits;
+}
+
+// After a pass: poses with an overlap found are decided (one map per angle here); the rows in
+// play shrink to those with poses still open.
+void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
+    const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
+    if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
+    for (int a = 0; a < batch_angles; ++a) {
+        auto& band = open_rows[std::size_t(a)];
+        std::array<std::int32_t, 2> still{height_, -1};
+        for (int j = band[0]; j <= band[1]; ++j) {
+            std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            bool any = false;
+            for (int i = 0; i < width_; ++i) {
+                row_open[i] &= std::uint8_t(~(row[i >> 5] >> (i & 31)) & 1u);
+                any |= row_open[i] != 0;
+            }
+            if (any) still = {std::min(still[0], j), j};
+        }
+        band = still;
+    }
+}
+
+// Per pose of the batch, whether it meets the test: EveryFrame, set in every slot's map;
+// otherwise the one map's bit says it.
+std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angles) const {
+    const int maps = test.maps_per_angle();
+    const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
+    std::vector<std::uint8_t> meets(per_angle_ * std::uint64_t(batch_angles));
+    const std::uint8_t when_set = test.want == Want::NoOverlap ? 0 : 1;
+    for (int a = 0; a < batch_angles; ++a)
+        for (int j = 0; j < height_; ++j) {
+            std::uint8_t* out = meets.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            for (int w = 0; w < row_words_; ++w) {
+                std::uint32_t bits = row[w];
+                for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height_) * std::size_t(row_words_) + std::size_t(w)];
+                for (int i = w * 32; i < std::min(width_, w * 32 + 32); ++i) out[i] = ((bits >> (i & 31)) & 1u) ? when_set : std::uint8_t(1 - when_set);
+            }
+        }
+    return meets;
+}
+
+// The cost model: a stage's optional maps pay off when its poses, tested one by one, would cost
+// more than the run pairs of its maps (estimated from one angle of the batch).
+bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
+                            const std::vector<std::uint8_t>& candidates) const {
+    if (optional_maps_[std::size_t(stage)].empty() || pose_count == 0) return false;
+    // The first angle with poses in play stands for every angle with some.
+    int sample = 0, angles_in_play = 0;
+    for (int a = batch_angles - 1; a >= 0; --a)
+        if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
+    std::uint64_t pairs = 0;
+    PulledPruner pruner;
+    for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
+        std::vector<SliceRun> runs;
+        std::vector<PulledRun> pruned;
+        cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], runs);
+        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
+    }
+    const double pose_cost = double(pose_count) * tools_.options.pose_test_pairs;
+    return pose_cost > double(pairs) * double(angles_in_play);
+}
+
+}  // namespace amhv::gpu::sweep_detail

@@ -1,0 +1,209 @@
+// The plan of one Vulkan sweep: which overlap tests decide each stage, on which column volumes,
+// which of them go as overlap maps, and how many angles one batch holds.
+#include <algorithm>
+#include <cstring>
+
+#include "src/core/error.hpp"
+#include "src/sweep/sweep_vulkan_run.hpp"
+
+namespace amhv::gpu::sweep_detail {
+
+SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools)
+    : problem_(problem),
+      tools_(tools),
+      frames_(problem.frames()),
+      last_(problem.frames() - 1),
+      type_(problem.type),
+      range_(problem.range),
+      width_(problem.range.width()),
+      height_(problem.range.height()),
+      block_(std::max(1, tools.options.block)),
+      per_angle_(std::uint64_t(problem.range.width()) * std::uint64_t(problem.range.height())),
+      sequence_(tools.context),
+      no_poses_(tools.context, 16, Buffer::Memory::Host) {
+    if (frames_ > VulkanSweeper::kMaxFrameWords * 32)
+        fail("key segment", "has {} normalised frames; the sweep handles at most {}", frames_, VulkanSweeper::kMaxFrameWords * 32);
+    std::vector<const VoxelGrid*> grids{&problem.a.whole.grid(), &problem.b.whole.grid()};
+    if (problem.visibility) grids.insert(grids.end(), {&problem.a.view_cone.grid, &problem.b.view_cone.grid});
+    z_ = z_frame_covering(grids);
+    plan_stages();
+    if (tools_.options.maps) plan_maps();
+    root_a_ = problem.root_a_q();
+    root_b_ = problem.root_b_q();
+    trig_.resize(std::size_t(range_.angles));
+    for (int k = 0; k < range_.angles; ++k) trig_[std::size_t(k)] = problem.trig(k);
+    upload_angle_tables();
+    blocks_x_ = (width_ + block_ - 1) / block_;
+    blocks_y_ = (height_ + block_ - 1) / block_;
+}
+
+GpuVolume* SweepRun::add(ColumnVolume columns) {
+    auto v = std::make_unique<GpuVolume>();
+    v->columns = std::move(columns);
+    volumes_.push_back(std::move(v));
+    return volumes_.back().get();
+}
+
+// Contact: the interest unions meet. Dictionary: a '+' ('-') label fails when a contact voxel of
+// that object is off its end (start) surface, i.e. when that object's off-surface voxels meet the
+// other's volume; the lateral pairs by their frames. Fidelity: no frame where the fidelity volumes
+// meet. Visibility: each cone meets the other's whole body.
+void SweepRun::plan_stages() {
+    const SweepObject& A = problem_.a;
+    const SweepObject& B = problem_.b;
+    const bool frames_of_interest = type_.lateral_pair() && (type_.variant == 'a' || type_.variant == 'b');
+    interest_a_ = add(columns_of(A.interest, z_, frames_of_interest));
+    interest_b_ = add(columns_of(B.interest, z_, frames_of_interest));
+    stages_[0].push_back({interest_a_, interest_b_, 0, Want::Overlap});
+    const int last = last_, tolerance = problem_.tolerance;
+    auto off_surface = [&](const Amhv& volume, SurfaceLabel label) {
+        return add(columns_where(volume, z_, [&, label](std::size_t v) {
+            return label == SurfaceLabel::Plus ? volume.t_end(v) < last - tolerance : volume.t_start(v) > tolerance;
+        }));
+    };
+    if (!type_.lateral_pair()) {
+        if (type_.a != SurfaceLabel::Lateral) stages_[1].push_back({off_surface(A.interest, type_.a), interest_b_, 0, Want::NoOverlap});
+        if (type_.b != SurfaceLabel::Lateral) stages_[1].push_back({interest_a_, off_surface(B.interest, type_.b), 0, Want::NoOverlap});
+    } else if (type_.variant == 'a') {
+        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::EveryFrame});
+    } else if (type_.variant == 'b') {
+        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::Overlap});
+    } else {
+        // (c) fails when some contact voxel has t_start^A <= t_end^B, i.e. when for some t the
+        // voxels A has reached by t meet the voxels B still occupies at or after t.
+        stages_[1].push_back({add(columns_cumulative(A.interest, z_, true)), add(columns_cumulative(B.interest, z_, false)), frames_,
+                              Want::NoOverlap});
+    }
+    stages_[2].push_back({add(columns_of(A.fidelity, z_, true)), add(columns_of(B.fidelity, z_, true)), frames_, Want::NoOverlap});
+    if (problem_.visibility) {
+        stages_[3].push_back({add(columns_of(A.view_cone, z_)), add(columns_of(B.whole, z_, false)), 0, Want::Overlap});
+        stages_[3].push_back({add(columns_of(A.whole, z_, false)), add(columns_of(B.view_cone, z_)), 0, Want::Overlap});
+    }
+}
+
+// Overlap maps (SweeperOptions::maps): tests decided for every offset of an angle at once from
+// slice runs. `required_maps_` replace the stage's pose tests: contact, and the dictionary's
+// lateral types and surface test. `optional_maps_` are the stage's pose tests as maps; a batch
+// uses them when its poses in that stage would cost more pose by pose (the cost model).
+void SweepRun::plan_maps() {
+    std::vector<int> every_frame(static_cast<std::size_t>(frames_));
+    for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
+    auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
+        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr};
+    };
+    auto map_of = [&](const OverlapTest& test) {
+        std::vector<int> slots{0};
+        if (test.frames > 0) slots = every_frame;
+        return map_test(test.fixed->columns, test.moving->columns, slots, test.want);
+    };
+    required_maps_[0].push_back(map_of(stages_[0].front()));
+    if (!type_.lateral_pair()) {
+        // A pose in contact passes a labelled type only if the labelled surfaces (for a '0', the
+        // whole part) meet, since all its contact voxels lie on them. The surfaces are small, so
+        // this necessary test is cheap and leaves few poses for the exact ones.
+        const int last = last_, tolerance = problem_.tolerance;
+        auto on_surface = [&](const Amhv& volume, SurfaceLabel label, GpuVolume* whole) -> const ColumnVolume& {
+            if (label == SurfaceLabel::Lateral) return whole->columns;
+            return add(columns_where(volume, z_, [&, label](std::size_t v) {
+                       return label == SurfaceLabel::Plus ? volume.t_end(v) >= last - tolerance : volume.t_start(v) <= tolerance;
+                   }))->columns;
+        };
+        required_maps_[1].push_back(map_test(on_surface(problem_.a.interest, type_.a, interest_a_),
+                                             on_surface(problem_.b.interest, type_.b, interest_b_), {0}, Want::Overlap));
+        for (const OverlapTest& test : stages_[1]) optional_maps_[1].push_back(map_of(test));
+    } else if (type_.variant == 'a' || type_.variant == 'b') {
+        required_maps_[1].push_back(map_of(stages_[1].front()));
+    } else {
+        // (c): the voxels A has reached by t meet those B still occupies at or after t for some t
+        // exactly when they meet those B occupies at t itself for some t (take t = t_end^B of the
+        // shared voxel); single frames of B give far fewer runs.
+        required_maps_[1].push_back(
+            map_test(stages_[1].front().fixed->columns, add(columns_of(problem_.b.interest, z_, true))->columns, every_frame, Want::NoOverlap));
+    }
+    for (int stage = 2; stage < 4; ++stage)
+        for (const OverlapTest& test : stages_[std::size_t(stage)]) optional_maps_[std::size_t(stage)].push_back(map_of(test));
+    for (auto* all : {&required_maps_, &optional_maps_})
+        for (auto& stage : *all)
+            for (MapTest& test : stage) prepare_map(test);
+}
+
+void SweepRun::prepare_map(MapTest& test) {
+    test.runs = fixed_runs(*test.fixed, test.slots);
+    test.moving_words = sparse_columns(*test.moving, test.slots);
+    // Packed (y, x_first | x_last << 16) relative to the volume's origin.
+    if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
+        fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel", test.fixed->nx,
+             test.fixed->ny);
+    // Pulled runs are cut to pulled_clip, which starts here for every angle and row.
+    test.pulled_x0 = std::int32_t(test.fixed->x0) + test.fixed->x_first - range_.i_last;
+    std::vector<std::array<std::uint32_t, 2>> packed;
+    packed.reserve(test.runs.runs.size());
+    for (const SliceRun& run : test.runs.runs)
+        packed.push_back({std::uint32_t(run.y - test.fixed->y0),
+                          std::uint32_t(run.x_first - test.fixed->x0) | std::uint32_t(run.x_last - test.fixed->x0) << 16});
+    test.fixed_runs = upload_to_host(tools_.context, packed.data(), packed.size() * 8);
+    test.fixed_keys = upload_to_host(tools_.context, test.runs.by_key.data(), test.runs.by_key.size() * 8);
+}
+
+void SweepRun::upload_angle_tables() {
+    Context& context = tools_.context;
+    for_each_test([&](const OverlapTest& test) {
+        if (test.fixed->columns.slots != test.moving->columns.slots) fail("sweep", "internal: slot counts differ in one test");
+        if (test.moving->angles) return;
+        std::vector<std::uint8_t> table(32 + std::size_t(range_.angles) * sizeof(GpuAngle));
+        std::int64_t roots[4] = {root_a_[0], root_a_[1], root_b_[0], root_b_[1]};
+        std::memcpy(table.data(), roots, sizeof(roots));
+        for (int k = 0; k < range_.angles; ++k) {
+            GpuAngle angle{{trig_[std::size_t(k)].cos_q, trig_[std::size_t(k)].sin_q}, {}};
+            auto bounds = mapped_bounds(test.moving->columns, trig_[std::size_t(k)], root_a_, root_b_);
+            std::copy(bounds.begin(), bounds.end(), angle.bounds);
+            std::memcpy(table.data() + 32 + std::size_t(k) * sizeof(GpuAngle), &angle, sizeof(angle));
+        }
+        test.moving->angles = upload_to_host(context, table.data(), table.size());
+    });
+    for_each_test([&](const OverlapTest& test) {
+        if (test.want != Want::EveryFrame) return;
+        if (!test.fixed->frame_boxes) {
+            const auto& boxes = test.fixed->columns.slot_boxes;
+            test.fixed->frame_boxes = upload_to_host(context, boxes.data() + 1, (boxes.size() - 1) * 16);
+        }
+        if (!test.moving->angle_frame_boxes) {
+            const ColumnVolume& m = test.moving->columns;
+            std::vector<std::array<std::int32_t, 4>> boxes;
+            for (int k = 0; k < range_.angles; ++k)
+                for (int t = 0; t < m.frames(); ++t)
+                    boxes.push_back(mapped_bounds(m, m.slot_boxes[std::size_t(1 + t)], trig_[std::size_t(k)], root_a_, root_b_));
+            test.moving->angle_frame_boxes = upload_to_host(context, boxes.data(), boxes.size() * 16);
+        }
+    });
+}
+
+// Batches of angles small enough for the flag buffer, 32-bit item counts and the map bytes a
+// batch may hold (one bit per offset, a row of words per j, per angle and map).
+void SweepRun::size_batches() {
+    const SweeperOptions& options = tools_.options;
+    std::uint64_t max_items = 1;
+    for_each_test([&](const OverlapTest& test) {
+        max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose));
+        if (block_ > 1) max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test, block_ - 1).items_per_pose));
+    });
+    const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
+    if (per_angle_ > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle_, max_poses);
+    row_words_ = (width_ + 31) / 32;
+    std::uint64_t maps_per_angle = 0;
+    for (const auto* all : {&required_maps_, &optional_maps_})
+        for (const auto& stage : *all)
+            for (const MapTest& test : stage) maps_per_angle = std::max<std::uint64_t>(maps_per_angle, std::uint64_t(test.maps_per_angle()));
+    const std::uint64_t map_bytes_per_angle = maps_per_angle * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
+    const std::uint64_t max_map_bytes = std::min<std::uint64_t>(options.max_map_bytes, tools_.context.selected().max_storage_buffer_range);
+    if (map_bytes_per_angle > max_map_bytes)
+        fail("sweep", "the overlap maps of one angle need {} bytes, more than the {} a batch may hold; narrow the x/y range", map_bytes_per_angle,
+             max_map_bytes);
+    std::uint64_t batch_limit = std::max<std::uint64_t>(1, max_poses / per_angle_);
+    if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
+    angles_per_batch_ = int(std::max<std::uint64_t>(1, batch_limit));
+    if (width_ > 0xffff || height_ > 0xffff)
+        fail("sweep", "a range of {} x {} offsets is more than the sweep handles (65,535 per side); narrow it", width_, height_);
+}
+
+}  // namespace amhv::gpu::sweep_detail

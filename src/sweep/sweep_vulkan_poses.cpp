@@ -1,0 +1,224 @@
+// Pose-by-pose tests of the Vulkan sweep (shaders/sweep_overlap.comp): work blocks under the loop
+// budget, waves that drop decided poses, and the exact block pre-tests on OR-pooled volumes.
+#include <algorithm>
+#include <cstring>
+
+#include "src/core/error.hpp"
+#include "src/sweep/sweep_vulkan_run.hpp"
+
+namespace amhv::gpu::sweep_detail {
+
+// Work blocks per test: loop iterations per item stay under the budget. `grow`: columns the fixed
+// volume will gain on each side in x and y (its pooled form, before it exists).
+Blocks SweepRun::blocks_of(const OverlapTest& test, int grow) const {
+    const std::uint32_t budget = tools_.options.loop_budget;
+    const int nx = test.fixed->columns.nx + grow, ny = test.fixed->columns.ny + grow;
+    // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
+    // frame, then give the item as many frames as fit.
+    const bool per_frame = test.want == Want::EveryFrame;
+    const std::uint64_t per_column = per_frame ? std::uint64_t(test.words()) + 2 : std::uint64_t(test.words()) * (1 + test.frames) + 2;
+    if (per_column > budget)
+        fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
+             "or a shorter segment", per_column, budget);
+    Blocks b;
+    b.columns = int(std::min<std::uint64_t>(std::uint64_t(std::max(nx, 1)), budget / per_column));
+    b.rows = int(std::clamp<std::uint64_t>(budget / (per_column * std::uint64_t(b.columns)), 1, std::uint64_t(std::max(ny, 1))));
+    b.items_x = (std::max(nx, 1) + b.columns - 1) / b.columns;
+    b.items_per_pose = b.items_x * ((std::max(ny, 1) + b.rows - 1) / b.rows);
+    if (per_frame) {
+        const std::uint64_t per_frame_cost = per_column * std::uint64_t(b.columns) * std::uint64_t(b.rows) + 4;
+        b.frames_per_item = int(std::clamp<std::uint64_t>(budget / per_frame_cost, 1, std::uint64_t(test.frames)));
+        b.spatial_items = b.items_per_pose;
+        b.items_per_pose *= (test.frames + b.frames_per_item - 1) / b.frames_per_item;
+    }
+    return b;
+}
+
+// Exact block pre-tests: the same tests with each fixed volume OR-pooled over a block of offsets
+// (dilated_columns). Pooled volumes are shared like the volumes they come from, and made when a
+// stage first goes pose by pose (with maps, most never do).
+const std::vector<OverlapTest>& SweepRun::block_stage(int stage) {
+    auto& tests = block_stages_[std::size_t(stage)];
+    if (blocks_made_[std::size_t(stage)]) return tests;
+    blocks_made_[std::size_t(stage)] = true;
+    for (OverlapTest test : stages_[std::size_t(stage)]) {
+        auto [it, added] = pooled_.emplace(test.fixed, nullptr);
+        if (added) it->second = add(dilated_columns(test.fixed->columns, block_));
+        GpuVolume* volume = it->second;
+        if (test.want == Want::EveryFrame && !volume->frame_boxes) {
+            const auto& boxes = volume->columns.slot_boxes;
+            volume->frame_boxes = upload_to_host(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);
+        }
+        test.fixed = volume;
+        tests.push_back(test);
+    }
+    return tests;
+}
+
+// Pose p of the implicit list: every (i, j) of the range, angle by angle from `angle_first`.
+Pose SweepRun::implicit_pose(int angle_first, std::uint64_t p) const {
+    const std::uint64_t rest = p % per_angle_;
+    return {angle_first + std::int32_t(p / per_angle_), range_.i_first + std::int32_t(rest % std::uint64_t(width_)),
+            range_.j_first + std::int32_t(rest / std::uint64_t(width_)), 0};
+}
+
+std::size_t SweepRun::outcome_index(const Pose& p) const {
+    return (std::size_t(p[0]) * std::size_t(height_) + std::size_t(p[2] - range_.j_first)) * std::size_t(width_) +
+           std::size_t(p[1] - range_.i_first);
+}
+
+// A pose's work items go out in waves (one block of frames, or a quarter of the columns, at a
+// time); a pose that a wave decides (an overlap found; a frame without one) is not sent again,
+// since items cannot tell each other to stop.
+void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* pose_list, std::uint64_t count, int angle_first,
+                              std::vector<std::uint32_t>& found) {
+    Context& context = tools_.context;
+    const ColumnVolume& s = test.fixed->columns;
+    const ColumnVolume& m = test.moving->columns;
+    const Blocks b = blocks_of(test);
+    const int words = test.flag_words();
+    const bool every_frame = test.want == Want::EveryFrame;
+    const int wave = every_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
+    std::vector<std::uint64_t> live(count);
+    for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
+    for (int chunk_first = 0; chunk_first < b.items_per_pose && !live.empty(); chunk_first += wave) {
+        const int chunks = std::min(wave, b.items_per_pose - chunk_first);
+        const bool implicit = !pose_list && live.size() == count;
+        if (!implicit) {
+            ensure_host_capacity(context, poses_, live.size() * 16);
+            auto* out = poses_->mapped<std::uint8_t>().data();
+            for (std::size_t l = 0; l < live.size(); ++l) {
+                const Pose pose = pose_list ? (*pose_list)[live[l]] : implicit_pose(angle_first, live[l]);
+                std::memcpy(out + l * 16, pose.data(), 16);
+            }
+        }
+        ensure_host_capacity(context, flags_, live.size() * std::uint64_t(words) * 4);
+        sequence_.fill(*flags_, live.size() * std::uint64_t(words) * 4, 0u);
+        // The clear must land before the test ORs its flags in.
+        sequence_.barrier();
+        const BoundBuffers set = tools_.overlap.bind(
+            {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
+             implicit ? &no_poses_ : poses_.get(), flags_.get(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses_,
+             test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses_});
+        const OverlapParams params{0, 0,
+                                   std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
+                                   std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
+                                   s.slots, s.zwords, test.frames, test.mode(),
+                                   b.columns, b.rows, b.items_x, chunk_first, chunks,
+                                   range_.i_first, range_.j_first, width_, height_,
+                                   angle_first, implicit ? 0 : 1, words, 0,
+                                   test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
+        const std::uint64_t items = live.size() * std::uint64_t(chunks);
+        tools_.stats.work_items += items;
+        sequence_.dispatch(tools_.overlap, set, params, std::uint32_t(items));
+        // The host reads the flags after the fence.
+        sequence_.barrier_to_host();
+        sequence_.submit_and_wait();
+        ++tools_.stats.submits;
+        const std::uint32_t* f = flags_->mapped<std::uint32_t>().data();
+        // Frames whose every item has run: a frame among them without overlap decides the pose.
+        const int frames_done = every_frame ? std::min(frames_, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
+        std::vector<std::uint64_t> undecided;
+        for (std::size_t l = 0; l < live.size(); ++l) {
+            std::uint32_t* w = found.data() + live[l] * std::uint64_t(words);
+            for (int q = 0; q < words; ++q) w[q] |= f[l * std::size_t(words) + std::size_t(q)];
+            bool decided = false;
+            if (every_frame) {
+                for (int t2 = 0; t2 < frames_done && !decided; ++t2) decided = (w[t2 >> 5] & (1u << (t2 & 31))) == 0;
+            } else {
+                decided = w[0] != 0;
+            }
+            if (!decided) undecided.push_back(live[l]);
+        }
+        live = std::move(undecided);
+    }
+}
+
+Meets SweepRun::run_stage(const std::vector<OverlapTest>& stage, const std::vector<Pose>* pose_list, std::uint64_t implicit_count,
+                          int angle_first) {
+    const std::uint64_t count = pose_list ? pose_list->size() : implicit_count;
+    Meets meets(stage.size(), std::vector<std::uint8_t>(count, 1));
+    if (count == 0 || stage.empty()) return meets;
+    for (std::size_t t = 0; t < stage.size(); ++t) {
+        const OverlapTest& test = stage[t];
+        for (GpuVolume* v : {test.fixed, test.moving})
+            if (!v->bits) {
+                v->bits = upload_to_host(tools_.context, v->columns.bits.data(), v->columns.bits.size() * 4);
+                v->rows = upload_to_host(tools_.context, v->columns.rows.data(), v->columns.rows.size() * 8);
+            }
+        const int words = test.flag_words();
+        std::vector<std::uint32_t> found(count * std::uint64_t(words), 0u);
+        run_test_waves(test, pose_list, count, angle_first, found);
+        for (std::uint64_t p = 0; p < count; ++p) {
+            const std::uint32_t* w = found.data() + p * std::uint64_t(words);
+            bool ok;
+            if (test.want == Want::EveryFrame) {
+                ok = true;
+                for (int q = 0; q < words; ++q) {
+                    int bits = std::min(32, frames_ - q * 32);
+                    std::uint32_t all = bits == 32 ? 0xffffffffu : ((1u << bits) - 1u);
+                    ok = ok && (w[q] & all) == all;
+                }
+            } else {
+                ok = (w[0] != 0) == (test.want == Want::Overlap);
+            }
+            meets[t][p] = ok;
+        }
+    }
+    return meets;
+}
+
+std::vector<Verdict> SweepRun::block_verdicts(int stage, const std::vector<Pose>& bases) {
+    std::vector<Verdict> verdicts(bases.size(), Verdict::Pass);
+    if (bases.empty()) return verdicts;
+    tools_.stats.blocks_per_stage[std::size_t(stage)] += bases.size();
+    const auto& tests = block_stage(stage);
+    const auto meets = run_stage(tests, &bases, 0, 0);
+    for (std::size_t b = 0; b < bases.size(); ++b)
+        for (std::size_t t = 0; t < tests.size(); ++t) {
+            if (verdicts[b] == Verdict::Fail) break;
+            const bool proven = tests[t].want == Want::NoOverlap ? meets[t][b] != 0 : meets[t][b] == 0;
+            if (proven && tests[t].want != Want::NoOverlap) verdicts[b] = Verdict::Fail;
+            else if (!proven) verdicts[b] = Verdict::Undecided;
+        }
+    return verdicts;
+}
+
+std::vector<std::uint8_t> SweepRun::decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles) {
+    std::vector<std::uint8_t> passes(candidates.size(), 1);
+    if (stages_[std::size_t(stage)].empty() || candidates.empty()) return passes;
+    std::vector<std::size_t> undecided;
+    if (block_ > 1) {
+        std::vector<std::int32_t> block_of(std::size_t(batch_angles) * std::size_t(blocks_x_) * std::size_t(blocks_y_), -1);
+        std::vector<Pose> bases;
+        std::vector<std::int32_t> pose_block(candidates.size());
+        for (std::size_t p = 0; p < candidates.size(); ++p) {
+            const Pose& q = candidates[p];
+            const int bi = (q[1] - range_.i_first) / block_, bj = (q[2] - range_.j_first) / block_;
+            const std::size_t key = (std::size_t(q[0] - angle_first) * std::size_t(blocks_y_) + std::size_t(bj)) * std::size_t(blocks_x_) + std::size_t(bi);
+            if (block_of[key] < 0) {
+                block_of[key] = std::int32_t(bases.size());
+                bases.push_back({q[0], range_.i_first + bi * block_, range_.j_first + bj * block_, 0});
+            }
+            pose_block[p] = block_of[key];
+        }
+        const std::vector<Verdict> verdicts = block_verdicts(stage, bases);
+        for (std::size_t p = 0; p < candidates.size(); ++p) {
+            const Verdict v = verdicts[std::size_t(pose_block[p])];
+            if (v == Verdict::Fail) passes[p] = 0;
+            else if (v == Verdict::Undecided) undecided.push_back(p);
+        }
+    } else {
+        undecided.resize(candidates.size());
+        for (std::size_t p = 0; p < candidates.size(); ++p) undecided[p] = p;
+    }
+    std::vector<Pose> list;
+    list.reserve(undecided.size());
+    for (std::size_t p : undecided) list.push_back(candidates[p]);
+    tools_.stats.pose_tests_per_stage[std::size_t(stage)] += list.size();
+    const auto meets = run_stage(stages_[std::size_t(stage)], &list, 0, 0);
+    for (std::size_t u = 0; u < undecided.size(); ++u) passes[undecided[u]] = passes_all(meets, u);
+    return passes;
+}
+
+}  // namespace amhv::gpu::sweep_detail

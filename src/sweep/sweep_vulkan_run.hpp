@@ -1,0 +1,232 @@
+#pragma once
+// One call of VulkanSweeper::sweep, as named steps over shared state (internal to the sweeper).
+//
+//   plan      (sweep_vulkan_plan.cpp)   which overlap tests decide each stage, their column volumes
+//                                       and overlap maps, the angle tables, the batch size;
+//   pose tests (sweep_vulkan_poses.cpp) tests pose by pose in waves, with block pre-tests first;
+//   maps      (sweep_vulkan_maps.cpp)   tests for every offset of an angle at once from slice runs;
+//   batches   (sweep_vulkan.cpp)        contact, dictionary, fidelity and visibility per batch of
+//                                       angles, and the outcome of every pose.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "src/gpu/compute.hpp"
+#include "src/sweep/column_volume.hpp"
+#include "src/sweep/problem.hpp"
+#include "src/sweep/slice_runs.hpp"
+#include "src/sweep/sweep_vulkan.hpp"
+
+namespace amhv::gpu::sweep_detail {
+
+struct OverlapParams {
+    std::uint32_t item_base, item_count;
+    std::int32_t static_x0, static_y0, static_nx, static_ny;
+    std::int32_t moving_x0, moving_y0, moving_nx, moving_ny;
+    std::int32_t slots, zwords, frames, mode;
+    std::int32_t columns_per_item, rows_per_item, items_x;
+    std::int32_t chunk_first, chunks_in_wave;
+    std::int32_t range_i0, range_j0, range_ni, range_nj;
+    std::int32_t angle_first, explicit_poses, flag_words, flag_offset;
+    std::int32_t word_first, word_last;
+    std::int32_t frames_per_item, spatial_items;
+};
+static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
+
+struct MapParams {
+    std::uint32_t item_base, item_count;
+    std::int32_t chunks, runs_per_chunk;
+    std::int32_t zbits, slot_count;
+    std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
+    std::int32_t map_per_slot;
+    std::int32_t fixed_x0, fixed_y0, pulled_x0;
+};
+static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
+
+// A pulled run as the map kernel reads it: x packed relative to the batch's pulled_x0, and the
+// rows j (first | last << 16) it is paired on.
+struct PulledRun {
+    std::int32_t y;
+    std::uint32_t x;
+    std::int32_t key;
+    std::uint32_t rows;
+};
+static_assert(sizeof(PulledRun) == 16);
+
+struct GpuAngle {
+    std::int64_t trig[2];
+    std::int32_t bounds[4];
+};
+static_assert(sizeof(GpuAngle) == 32);
+
+constexpr std::int32_t kModeAny = 0, kModePerFrame = 1;
+
+// A column volume; uploaded when a pose-by-pose test first reads it (overlap maps read slice runs
+// instead), and its angle table (used when it is the moving side) on demand.
+struct GpuVolume {
+    ColumnVolume columns;
+    std::unique_ptr<Buffer> bits, rows, angles;
+    std::unique_ptr<Buffer> frame_boxes, angle_frame_boxes;  // PER_FRAME tests only
+};
+
+enum class Want { Overlap, NoOverlap, EveryFrame };
+
+struct OverlapTest {
+    GpuVolume* fixed;   // A's side: its columns are visited
+    GpuVolume* moving;  // B's side: pulled under A's columns
+    int frames;         // 0: unions only
+    Want want;
+    std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
+    // The z words where both volumes have bits (first > last: the test cannot find an overlap).
+    int word_first() const { return std::max(fixed->columns.word_first, moving->columns.word_first); }
+    int word_last() const { return std::min(fixed->columns.word_last, moving->columns.word_last); }
+    int words() const { return std::max(0, word_last() - word_first() + 1); }
+    int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
+};
+
+// One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
+// of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
+struct MapTest {
+    const ColumnVolume* fixed;
+    const ColumnVolume* moving;
+    std::vector<int> slots;
+    Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
+    FixedRuns runs;
+    SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
+    std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
+    std::unique_ptr<Buffer> fixed_runs, fixed_keys;
+    int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
+};
+
+// Work blocks of one pose test: columns x rows of the fixed volume per invocation, and for
+// PER_FRAME tests the frames each invocation covers.
+struct Blocks {
+    int columns, rows, items_x, items_per_pose;
+    int frames_per_item = 0, spatial_items = 1;
+};
+
+using Pose = std::array<std::int32_t, 4>;  // angle, i, j, unused
+using Rows = std::vector<std::array<std::int32_t, 2>>;  // per angle: first and last row j - j_first (first > last: none)
+using Meets = std::vector<std::vector<std::uint8_t>>;   // per test and pose: whether the pose meets the test's criterion
+
+// Whether pose p meets every test.
+inline bool passes_all(const Meets& meets, std::size_t p) {
+    return std::all_of(meets.begin(), meets.end(), [p](const auto& m) { return m[p] != 0; });
+}
+
+// What a block pre-test proves for every pose of its block: a pooled "no overlap" makes an
+// Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
+enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
+
+// Scratch of the pulled-run pruning, reused by one thread.
+struct PulledPruner {
+    std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
+};
+
+// The kernels and settings a run borrows from its VulkanSweeper.
+struct SweepTools {
+    Context& context;
+    const SweeperOptions& options;
+    Kernel& overlap;
+    Kernel& map;
+    SweepStats& stats;
+    const std::function<void(int, int)>& progress;
+};
+
+class SweepRun {
+public:
+    SweepRun(const SweepProblem& problem, SweepTools tools);
+    SweepResult run();
+
+private:
+    // ---- plan (sweep_vulkan_plan.cpp) ----
+    GpuVolume* add(ColumnVolume columns);
+    // The pose tests of each stage: contact, dictionary, fidelity, visibility.
+    void plan_stages();
+    // The overlap maps that replace (required) or may replace (optional) each stage's pose tests.
+    void plan_maps();
+    // Cuts a map test's fixed runs and uploads them.
+    void prepare_map(MapTest& test);
+    // Per moving volume: every angle's rotation and mapped bounds; per-frame boxes for PER_FRAME tests.
+    void upload_angle_tables();
+    // How many angles one batch holds (flag buffer, 32-bit item counts, map bytes).
+    void size_batches();
+    template <typename Visit>
+    void for_each_test(const Visit& visit) {
+        for (const auto& stage : stages_)
+            for (const OverlapTest& test : stage) visit(test);
+    }
+
+    // ---- pose tests (sweep_vulkan_poses.cpp) ----
+    Blocks blocks_of(const OverlapTest& test, int grow = 0) const;
+    // The stage's tests with each fixed volume OR-pooled over a block of offsets (made on first use).
+    const std::vector<OverlapTest>& block_stage(int stage);
+    Pose implicit_pose(int angle_first, std::uint64_t p) const;
+    std::size_t outcome_index(const Pose& p) const;
+    // Runs every test of `stage` on `pose_list` (or, when null, on `implicit_count` poses of the
+    // range from angle `angle_first`): per test and pose, whether the pose meets the criterion.
+    Meets run_stage(const std::vector<OverlapTest>& stage, const std::vector<Pose>* pose_list, std::uint64_t implicit_count,
+                    int angle_first);
+    // One test of run_stage, in waves; fills `found` (flag words per pose).
+    void run_test_waves(const OverlapTest& test, const std::vector<Pose>* pose_list, std::uint64_t count, int angle_first,
+                        std::vector<std::uint32_t>& found);
+    std::vector<Verdict> block_verdicts(int stage, const std::vector<Pose>& bases);
+    // Stage 1..3 for `candidates` of a batch: blocks first, then pose by pose where undecided.
+    std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
+
+    // ---- maps (sweep_vulkan_maps.cpp) ----
+    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows, std::vector<SliceRun>& out) const;
+    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows, const std::vector<SliceRun>& runs,
+                                    const std::uint8_t* open, std::vector<PulledRun>& out) const;
+    // Decides `test` for every pose of the batch (implicit order) with an overlap map.
+    std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
+                                      const std::vector<std::uint8_t>* candidates);
+    void dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int longest);
+    void close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const;
+    std::vector<std::uint8_t> read_map(const MapTest& test, int batch_angles) const;
+    bool maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
+                      const std::vector<std::uint8_t>& candidates) const;
+
+    // ---- batches (sweep_vulkan.cpp) ----
+    void sweep_batch(int angle_first);
+    // Adds the time since the last lap to `stage`'s wall time.
+    void lap(int stage);
+    std::vector<Pose> contact_and_dictionary_by_maps(int angle_first, int batch_angles);
+    std::vector<Pose> contact_pose_by_pose(int angle_first, int batch_angles);
+    std::vector<Pose> later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles);
+
+    const SweepProblem& problem_;
+    SweepTools tools_;
+    const int frames_, last_;
+    const InteractionType type_;
+    const PoseRange& range_;
+    const int width_, height_, block_;
+    const std::uint64_t per_angle_;
+    ZFrame z_;
+    std::array<std::int64_t, 2> root_a_{}, root_b_{};
+    std::vector<posemap::Trig> trig_;
+
+    std::vector<std::unique_ptr<GpuVolume>> volumes_;
+    GpuVolume* interest_a_ = nullptr;
+    GpuVolume* interest_b_ = nullptr;
+    std::vector<std::vector<OverlapTest>> stages_{4};
+    std::vector<std::vector<MapTest>> required_maps_{4}, optional_maps_{4};
+    std::vector<std::vector<OverlapTest>> block_stages_{4};
+    std::array<bool, 4> blocks_made_{};
+    std::map<const GpuVolume*, GpuVolume*> pooled_;
+
+    int angles_per_batch_ = 1, row_words_ = 0;
+    int blocks_x_ = 0, blocks_y_ = 0;
+    SweepResult result_;
+    std::chrono::steady_clock::time_point clock_;
+    Sequence sequence_;
+    std::unique_ptr<Buffer> flags_, poses_, pulled_, map_words_;
+    Buffer no_poses_;
+};
+
+}  // namespace amhv::gpu::sweep_detail
