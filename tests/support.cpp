@@ -34,8 +34,8 @@ TempDir::~TempDir() {
 
 std::filesystem::path source_dir() { return AMHV_SOURCE_DIR; }
 
-CommandResult run_amhv(const std::string& arguments) {
-    std::string command = std::string("'") + AMHV_BINARY + "' " + arguments + " 2>&1";
+CommandResult run_shell(const std::string& command_line) {
+    const std::string command = command_line + " 2>&1";
     std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
     CommandResult result{-1, {}};
     if (!pipe) return result;
@@ -45,6 +45,10 @@ CommandResult run_amhv(const std::string& arguments) {
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     return result;
 }
+
+std::string amhv_command() { return std::string("'") + AMHV_BINARY + "'"; }
+
+CommandResult run_amhv(const std::string& arguments) { return run_shell(amhv_command() + " " + arguments); }
 
 void write_obj(const std::filesystem::path& path, const TriangleMesh& mesh) {
     std::ofstream out(path);

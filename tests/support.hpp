@@ -46,6 +46,10 @@ struct CommandResult {
 };
 // Runs the built `amhv` binary with `arguments` (a shell-quoted string).
 CommandResult run_amhv(const std::string& arguments);
+// Runs `command` in sh (stdout and stderr together).
+CommandResult run_shell(const std::string& command);
+// The built `amhv` binary, shell-quoted.
+std::string amhv_command();
 // How many lines of the output are "amhv: error: ..." lines.
 int one_line_error(const CommandResult& result);
 

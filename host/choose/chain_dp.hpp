@@ -20,8 +20,7 @@ namespace amhv {
 
 struct ChainSolution {
     int i = 0, j = 0;        // B's root offset from A's root, in voxels of the grid (x = i h, y = j h)
-    double theta_rad = 0;    // B's rotation
-    int k = 0;               // its index on the sweep's angle lattice (theta = k step), carried to the edit
+    double theta_rad = 0;    // B's rotation (the edit keeps each solution's lattice index beside the chain)
 };
 
 struct ChainSegment {

@@ -25,7 +25,9 @@ void run_edit(const EditArguments& args) {
     Scene scene = load_scene(args.scene);
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
-    StagedOutput out(args.out);
+    std::vector<std::filesystem::path> inputs = scene_inputs(scene);
+    if (!args.options.from_sweep.empty()) inputs.emplace_back(args.options.from_sweep);
+    StagedOutput out(args.out, inputs);
     const EditResult edit = pipeline::edit_scene_into(scene, backends, out.dir(), args.options, start);
     out.commit();
 

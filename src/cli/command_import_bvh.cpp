@@ -12,6 +12,7 @@
 #include "src/cli/commands.hpp"
 #include "src/core/error.hpp"
 #include "src/io/bvh.hpp"
+#include "src/io/files.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/io/ply_file.hpp"
 
@@ -34,13 +35,6 @@ std::array<std::uint8_t, 3> part_colour(std::size_t index) {
     return palette[index % palette.size()];
 }
 
-void write_text(const fs::path& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    if (!out) fail(path.string(), "cannot write");
-    out << text;
-    if (!out) fail(path.string(), "write failed (disk full?)");
-}
-
 void run_import(const ImportArguments& args) {
     SkeletonBodyOptions options;
     if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
@@ -50,7 +44,7 @@ void run_import(const ImportArguments& args) {
     const std::vector<TrackSample> track = skeleton_track(motion, options);
     const std::vector<std::string> part_names = body_part_names(motion);
 
-    StagedOutput out(args.out);
+    StagedOutput out(args.out, {args.bvh});
     fs::create_directories(out.dir() / "meshes");
     fs::create_directories(out.dir() / "labels");
     std::string csv = "# amhv import-bvh: frame, eye x y z, gaze x y z (metres, z up)\n";
@@ -68,14 +62,14 @@ void run_import(const ImportArguments& args) {
         write_ply(out.dir() / fmt::format("meshes/frame_{:04d}.ply", f), body, colours,
                   {fmt::format("amhv import-bvh: {} frame {} ({:.4f} s), metres, z up; part labels in labels/frame_{:04d}.txt",
                                fs::path(args.bvh).filename().string(), f, f / motion.fps(), f)});
-        write_text(out.dir() / fmt::format("labels/frame_{:04d}.txt", f), labels);
+        write_file(out.dir() / fmt::format("labels/frame_{:04d}.txt", f), labels);
         const TrackSample& t = track[std::size_t(f)];
         csv += fmt::format("{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", f, t.eye.x(), t.eye.y(), t.eye.z(), t.gaze.x(), t.gaze.y(), t.gaze.z());
         vertices = std::max(vertices, body.vertices.size());
         triangles = std::max(triangles, body.triangles.size());
     }
-    write_text(out.dir() / "track.csv", csv);
-    write_text(out.dir() / "object.toml",
+    write_file(out.dir() / "track.csv", csv);
+    write_file(out.dir() / "object.toml",
                fmt::format("# amhv import-bvh of {}: an object table for a scene ([objects.A] or [objects.B]).\n"
                            "# Paths are relative to this folder: prefix them with its path relative to the scene file.\n"
                            "meshes = \"meshes/frame_%04d.ply\"\nlabels = \"labels/frame_%04d.txt\"\ntrack = \"track.csv\"\n"
@@ -91,7 +85,7 @@ void run_import(const ImportArguments& args) {
     json["parts"] = part_names;
     json["vertices_per_frame"] = vertices;
     json["triangles_per_frame"] = triangles;
-    write_text(out.dir() / "import.json", json.dump(2) + '\n');
+    write_file(out.dir() / "import.json", json.dump(2) + '\n');
     out.commit();
     std::cout << fmt::format("wrote {}/: meshes/ ({} PLY frames, {}..{}), labels/, track.csv, object.toml, import.json\n",
                              out.target().string(), range.count(), range.first, range.last);

@@ -19,6 +19,7 @@
 #include "src/io/bvh.hpp"
 #include "src/io/exr_slices.hpp"
 #include "src/io/mesh_sequence.hpp"
+#include "src/io/files.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/io/vdb_file.hpp"
 
@@ -110,7 +111,9 @@ void run_mhv(const MhvArguments& args) {
     if (summary.gap_voxels) spdlog::info("{} voxels are occupied in more than one interval of frames", summary.gap_voxels);
 
     // 4. Write everything into a staging folder; it replaces --out only when complete.
-    StagedOutput out(args.out);
+    std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
+    if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
+    StagedOutput out(args.out, inputs);
     write_amhv(volume, out.dir() / "mhv.amhv");
     int slices = 0;
     if (args.exr) slices = write_exr_slices(volume, out.dir() / "slices", {.axis = args.axis[0], .multipart = args.exr_multipart});
@@ -143,7 +146,7 @@ void run_mhv(const MhvArguments& args) {
                      {"exr_slice_count", slices},
                      {"vdb", args.vdb ? nlohmann::json("mhv.vdb") : nlohmann::json(nullptr)}};
     if (args.timings) json["timings_s"] = timings;
-    std::ofstream(out.dir() / "mhv.json") << json.dump(2) << '\n';
+    write_file(out.dir() / "mhv.json", json.dump(2) + '\n');
     out.commit();
     std::cout << fmt::format("amhv mhv: {} frames, {} x {} x {} voxels of {} m, {} occupied ({} with gaps), root ({:.3f}, {:.3f}, {:.3f}) m\n",
                              volume.frames(), grid.dims[0], grid.dims[1], grid.dims[2], grid.voxel, summary.occupied_voxels,

@@ -33,7 +33,7 @@ void run_sweep(const SweepArguments& args) {
 
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
-    StagedOutput out(args.out);
+    StagedOutput out(args.out, scene_inputs(scene));
     const pipeline::SweepStage stage = pipeline::sweep_scene(scene, backends, out.dir(), {args.segment, args.maps, args.timings}, start);
     std::vector<int> empty_segments;
     for (const KeySweep& k : stage.sweeps)

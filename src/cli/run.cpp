@@ -1,3 +1,4 @@
+#include <csignal>
 #include <exception>
 #include <iostream>
 
@@ -10,6 +11,9 @@
 namespace amhv::cli {
 
 int run(int argc, char** argv) {
+    // Past a file size limit (ulimit -f) a write then fails with EFBIG, which the checked writes
+    // report, instead of the signal killing the run without a word.
+    std::signal(SIGXFSZ, SIG_IGN);
     auto logger = spdlog::stderr_color_mt("amhv");
     logger->set_pattern("amhv: %^%l%$: %v");
     spdlog::set_default_logger(logger);

@@ -135,15 +135,17 @@ ChainWeights chain_weights(const Scene& scene) {
 
 // The DP's chain (docs/method.md section 7): each key segment's solutions as states, with the
 // pose where the editor's placements put B as the prior. An empty group stops the edit, or with
-// --allow-empty becomes the one state of B's captured placement on the lattice (`captured`).
+// --allow-empty becomes the one state of B's captured placement on the lattice (`captured`, its
+// angle index in `captured_k`).
 std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditOptions& options,
-                                     std::vector<bool>& captured) {
+                                     std::vector<bool>& captured, std::vector<int>& captured_k) {
     const double h = scene.sampling.voxel;
     const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
     const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
     const double step = radians(scene.sampling.angle_step_deg);
     std::vector<ChainSegment> chain(sweeps.size());
     captured.assign(sweeps.size(), false);
+    captured_k.assign(sweeps.size(), 0);
     for (std::size_t i = 0; i < sweeps.size(); ++i) {
         const KeySweep& s = sweeps[i];
         const KeySegment& key = scene.segments[i];
@@ -153,7 +155,7 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // Where the editor's placements put B relative to A, in A's capture axes.
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
-        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg), sol.k});
+        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
@@ -162,7 +164,8 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
         captured[i] = true;
         const int k = int(std::lround(c.prior_theta_rad / step));
-        c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)), k * step, k});
+        captured_k[i] = k;
+        c.solutions.push_back({int(std::lround(c.prior_offset.x() / h)), int(std::lround(c.prior_offset.y() / h)), k * step});
     }
     return chain;
 }
@@ -170,7 +173,8 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
 // The rigid move of each key segment pair from the DP's choice, and every key frame's transform:
 // capture -> scene is R(yaw) (p - C_i) + C-bar_i.
 void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps, const std::vector<ChainSegment>& chain,
-                        const std::vector<bool>& captured, const ChainWeights& weights, EditResult& r) {
+                        const std::vector<bool>& captured, const std::vector<int>& captured_k, const ChainWeights& weights,
+                        EditResult& r) {
     const double h = scene.sampling.voxel;
     const double psi_a = weights.yaw_a, psi_b = weights.yaw_b;
     const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y);
@@ -198,7 +202,7 @@ void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps,
         k.chosen.x = offset.x();
         k.chosen.y = offset.y();
         k.chosen.theta_deg = angles::degrees(sol.theta_rad);
-        k.chosen.k = sol.k;
+        k.chosen.k = captured_k[i];
         if (!captured[i]) k.chosen = sweeps[i].solutions[std::size_t(j)];
         r.keys.push_back(k);
         const TimelineSegment& seg = *std::find_if(r.timeline.segments.begin(), r.timeline.segments.end(),
@@ -267,12 +271,13 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     t0 = std::chrono::steady_clock::now();
     const ChainWeights weights = chain_weights(scene);
     std::vector<bool> captured;
-    const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, captured);
+    std::vector<int> captured_k;
+    const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, captured, captured_k);
     r.choice = solve_chain(chain, weights);
     r.dp_seconds = seconds_since(t0);
 
     t0 = std::chrono::steady_clock::now();
-    place_key_segments(scene, sweeps, chain, captured, weights, r);
+    place_key_segments(scene, sweeps, chain, captured, captured_k, weights, r);
     // Transitional segments, each object on its own.
     PathWeights pw;
     pw.delta = scene.weights.delta;

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "src/core/error.hpp"
+#include "src/io/files.hpp"
 
 namespace amhv {
 
@@ -48,7 +49,7 @@ void write_amhv(const Amhv& volume, const std::filesystem::path& path) {
         put(out, std::uint32_t(v));
         for (int w = 0; w < volume.words(); ++w) put(out, volume.word(w, v));
     }
-    if (!out.flush()) fail(path.string(), "write failed (disk full?)");
+    finish_file(out, path);
 }
 
 Amhv read_amhv(const std::filesystem::path& path) {

@@ -1,5 +1,7 @@
 #include "src/io/ply_file.hpp"
 
+#include "src/io/files.hpp"
+
 #include <bit>
 #include <fstream>
 
@@ -33,10 +35,7 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
         put(std::uint8_t(3));
         for (std::uint32_t i : t) put(std::int32_t(i));
     }
-    std::ofstream out(path, std::ios::binary);
-    if (!out) fail(path.string(), "cannot write");
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!out) fail(path.string(), "write failed (disk full?)");
+    write_file(path, std::string_view(bytes.data(), bytes.size()));
 }
 
 }  // namespace amhv

@@ -12,6 +12,7 @@
 
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
+#include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
 
 namespace amhv {
@@ -59,6 +60,7 @@ void draw_svg(const fs::path& path, int w, int h, const std::vector<Shape>& shap
         }
     }
     out << "</svg>\n";
+    finish_file(out, path);
 }
 
 void draw_png(const fs::path& path, int w, int h, const std::vector<Shape>& shapes) {
@@ -128,9 +130,7 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
         frames.push_back(f);
     }
     json["output"] = frames;
-    std::ofstream out(path);
-    if (!out) fail(path.string(), "cannot write");
-    out << json.dump(1) << '\n';
+    write_file(path, json.dump(1) + '\n');
 }
 
 namespace {

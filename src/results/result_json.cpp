@@ -9,6 +9,7 @@
 
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
+#include "src/io/files.hpp"
 #include "src/results/solutions_csv.hpp"
 
 namespace amhv::results {
@@ -218,11 +219,7 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
 }
 
 void write_json_file(const fs::path& path, const Json& json) {
-    std::ofstream out(path);
-    if (!out) fail(path.string(), "cannot create the file");
-    out << json.dump(2) << '\n';
-    out.close();
-    if (!out) fail(path.string(), "could not be written in full (disk full?)");
+    write_file(path, json.dump(2) + '\n');
 }
 
 }  // namespace amhv::results

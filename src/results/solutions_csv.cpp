@@ -9,6 +9,7 @@
 
 #include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
+#include "src/io/files.hpp"
 
 namespace amhv {
 
@@ -43,7 +44,7 @@ void write_solutions_csv(const std::filesystem::path& path, const std::vector<So
         });
         for (std::size_t c = 0; c < count; ++c) out.write(text[c].data(), std::streamsize(text[c].size()));
     }
-    if (!out) fail(path.string(), "write failed");
+    finish_file(out, path);
 }
 
 std::vector<Solution> read_solutions_csv(const std::filesystem::path& path, double voxel, const angles::AngleLattice& lattice) {

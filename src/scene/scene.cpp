@@ -447,4 +447,25 @@ std::string resolved_toml(const Scene& scene) {
     return out.str();
 }
 
+namespace {
+
+// A folder stays itself; a printf pattern or a file stands for the folder it lies in as well.
+void add_input(std::vector<std::filesystem::path>& inputs, const std::string& path) {
+    if (path.empty()) return;
+    inputs.emplace_back(path);
+    if (path.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(path).parent_path());
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> scene_inputs(const Scene& scene) {
+    std::vector<std::filesystem::path> inputs{scene.file};
+    for (const SceneObject* object : {&scene.a, &scene.b})
+        for (const std::string* path : {&object->meshes, &object->bvh, &object->labels, &object->track}) add_input(inputs, *path);
+    for (const KeySegment& segment : scene.segments)
+        for (const PartSpec* part : {&segment.interest_a, &segment.interest_b, &segment.fidelity_a, &segment.fidelity_b})
+            if (part->kind == PartSpec::Kind::Meshes) add_input(inputs, part->meshes);
+    return inputs;
+}
+
 }  // namespace amhv

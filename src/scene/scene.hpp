@@ -95,4 +95,8 @@ Scene load_scene(const std::filesystem::path& file);
 // The scene with every default filled in, as TOML text (what `amhv check` prints).
 std::string resolved_toml(const Scene& scene);
 
+// Every file and folder the scene reads (the scene file, meshes, BVH takes, labels, tracks, part
+// sequences): an output folder must not be or contain any of them. A pattern stands for its folder.
+std::vector<std::filesystem::path> scene_inputs(const Scene& scene);
+
 }  // namespace amhv

@@ -1,0 +1,19 @@
+#include "src/io/files.hpp"
+
+#include "src/core/error.hpp"
+
+namespace amhv {
+
+void write_file(const std::filesystem::path& path, std::string_view bytes) {
+    std::ofstream out(path, std::ios::binary);
+    if (!out) fail(path.string(), "cannot create the file");
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    finish_file(out, path);
+}
+
+void finish_file(std::ofstream& out, const std::filesystem::path& path) {
+    if (out) out.close();
+    if (!out) fail(path.string(), "could not be written in full (is the disk full?)");
+}
+
+}  // namespace amhv

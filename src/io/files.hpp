@@ -1,0 +1,17 @@
+#pragma once
+// Checked writes: a file is either written in full or the call throws amhv::Error naming it (a full
+// disk, a quota, a file size limit). Streams buffer their last bytes until they close, so a write is
+// checked only after the close.
+#include <filesystem>
+#include <fstream>
+#include <string_view>
+
+namespace amhv {
+
+// Writes `bytes` to `path` (replacing it) and checks the write and the close.
+void write_file(const std::filesystem::path& path, std::string_view bytes);
+
+// Closes `out` and throws amhv::Error naming `path` if any write to it or the close failed.
+void finish_file(std::ofstream& out, const std::filesystem::path& path);
+
+}  // namespace amhv
