@@ -89,6 +89,8 @@ void run_mhv(const MhvArguments& args) {
     // 2. Temporal normalisation to --resample frames.
     std::vector<int> source_frames(sequence.frames.size());
     for (std::size_t i = 0; i < source_frames.size(); ++i) source_frames[i] = int(i);
+    // A segment resampled to many frames is as many frame meshes and a mask word per 32 of them.
+    if (args.resample > 100'000) throw Error(fmt::format("--resample: {} frames is more than the 100000 a segment may have", args.resample));
     if (args.resample > 0) source_frames = resample_indices(int(sequence.frames.size()), args.resample);
     else if (args.resample < 0) throw Error("--resample: the frame count must be positive");
     std::vector<const MeshFrame*> frames;

@@ -1,11 +1,14 @@
 #include <csignal>
 #include <exception>
+#include <filesystem>
+#include <new>
 #include <iostream>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "src/cli/commands.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv::cli {
@@ -24,7 +27,11 @@ int run(int argc, char** argv) {
     bool quiet = false, verbose = false;
     app.add_flag("-q,--quiet", quiet, "Only errors");
     app.add_flag("-v,--verbose", verbose, "More detail");
+    double max_memory_gb = 0;
+    app.add_option("--max-memory", max_memory_gb, "Memory a run may use, in GB (default: what the machine has available)")
+        ->check(CLI::PositiveNumber);
     app.parse_complete_callback([&] {
+        if (max_memory_gb > 0) budget::set_memory_limit(std::uint64_t(max_memory_gb * 1e9));
         spdlog::set_level(quiet ? spdlog::level::err : verbose ? spdlog::level::debug : spdlog::level::info);
     });
     add_devices_command(app);
@@ -44,10 +51,16 @@ int run(int argc, char** argv) {
         std::cerr << "amhv: error: " << e.what() << " (see --help)\n";
         return e.get_exit_code() ? e.get_exit_code() : 2;
     } catch (const Error& e) {
-        std::cerr << "amhv: error: " << e.what() << '\n';
+        std::cerr << "amhv: error: " << escape_controls(e.what()) << '\n';
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::cerr << "amhv: error: out of memory: use a larger voxel, a narrower x/y range or fewer frames (--max-memory sets the budget)\n";
+        return 1;
+    } catch (const std::filesystem::filesystem_error& e) {
+        std::cerr << "amhv: error: " << escape_controls(e.path1().string()) << ": " << e.code().message() << '\n';
         return 1;
     } catch (const std::exception& e) {
-        std::cerr << "amhv: error: " << e.what() << '\n';
+        std::cerr << "amhv: error: internal failure (please report it): " << printable(e.what(), 200) << '\n';
         return 1;
     }
     return 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <iostream>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -17,6 +18,7 @@ namespace amhv::gpu {
 struct Context::ValidationLog {
     mutable std::mutex mutex;
     std::vector<std::string> messages;
+    bool echo = false;  // AMHV_VALIDATION=1: also print each message on stderr as it comes
 };
 
 namespace {
@@ -31,6 +33,7 @@ VKAPI_ATTR VkBool32 VKAPI_CALL on_validation_message(VkDebugUtilsMessageSeverity
     auto* log = static_cast<Context::ValidationLog*>(user);
     std::lock_guard lock(log->mutex);
     log->messages.emplace_back(data && data->pMessage ? data->pMessage : "(no message)");
+    if (log->echo) std::cerr << "amhv: validation: " << escape_controls(log->messages.back()) << '\n';
     return VK_FALSE;
 }
 
@@ -124,6 +127,7 @@ Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>(
     }
 
     bool validation = options.validation || validation_requested_by_environment();
+    log_->echo = validation_requested_by_environment();
     std::vector<const char*> layers;
     std::vector<const char*> extensions;
     if (validation) {
@@ -135,6 +139,7 @@ Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>(
                         "`apt install vulkan-validationlayers`");
         layers.push_back(kValidationLayer);
         extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+        extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
     }
 
     vk::ApplicationInfo app{.pApplicationName = "amhv", .applicationVersion = 1, .pEngineName = "amhv",
@@ -145,7 +150,11 @@ Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>(
                        vk::DebugUtilsMessageTypeFlagBitsEXT::ePerformance,
         .pfnUserCallback = on_validation_message,
         .pUserData = log_.get()};
-    vk::InstanceCreateInfo instance_info{.pNext = validation ? &messenger_info : nullptr,
+    // Synchronisation validation too: a missing barrier is a race on a real GPU even where lavapipe
+    // happens to run the work in order.
+    const vk::ValidationFeatureEnableEXT enabled_features[] = {vk::ValidationFeatureEnableEXT::eSynchronizationValidation};
+    vk::ValidationFeaturesEXT validation_features{.pNext = &messenger_info, .enabledValidationFeatureCount = 1, .pEnabledValidationFeatures = enabled_features};
+    vk::InstanceCreateInfo instance_info{.pNext = validation ? static_cast<const void*>(&validation_features) : nullptr,
                                          .pApplicationInfo = &app,
                                          .enabledLayerCount = std::uint32_t(layers.size()),
                                          .ppEnabledLayerNames = layers.data(),

@@ -14,13 +14,6 @@ namespace amhv {
 
 namespace {
 
-// A token as an error message may show it: binary bytes as '?', at most 40 characters.
-std::string printable(const std::string& text) {
-    std::string out;
-    for (char c : text.substr(0, 40)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
-    return text.size() > 40 ? out + "..." : out;
-}
-
 struct Token {
     std::string text;
     int line;
@@ -223,6 +216,8 @@ BvhMotion read_bvh(const std::filesystem::path& path) {
     Tokens tokens(buffer.str(), path.string());
     BvhMotion motion;
     motion.source = path.string();
+    // A file that is not a BVH at all: say so without echoing what it holds instead.
+    if (!tokens.done() && tokens.peek() != "HIERARCHY") tokens.error("is not a BVH file: it does not start with HIERARCHY");
     tokens.expect("HIERARCHY");
     tokens.expect("ROOT");
     parse_joint(tokens, motion, -1, false, tokens.take("the root joint's name"));
@@ -234,7 +229,10 @@ BvhMotion read_bvh(const std::filesystem::path& path) {
     tokens.expect("Time:");
     const int frame_time_line = tokens.line();
     motion.frame_time = tokens.number("frame time");
-    if (!(motion.frame_time > 0)) tokens.error_at(frame_time_line, "frame time must be positive");
+    // 10 microseconds to a minute a frame: beyond that the rate is garbage, and resampling it
+    // would overflow the frame count.
+    if (!(motion.frame_time >= 1e-5 && motion.frame_time <= 60))
+        tokens.error_at(frame_time_line, "frame time {} s is not between 0.00001 and 60 seconds", motion.frame_time);
     std::size_t total = std::size_t(motion.frame_count) * std::size_t(motion.channel_count);
     if (total > kMaxValues) tokens.error("{} frames x {} channels is too large", motion.frame_count, motion.channel_count);
     motion.values.reserve(total);
@@ -310,7 +308,10 @@ BvhMotion resample_bvh(const BvhMotion& motion, double fps) {
     const int last = motion.frame_count - 1;
     // Output frames whose moment lies within the take; the 1e-9 keeps the last one when the
     // ratio is a whole number that floating point misses by an ulp.
-    const long count = long(std::floor(double(last) / step + 1e-9)) + 1;
+    const double frames = std::floor(double(last) / step + 1e-9) + 1;
+    if (!(frames <= double(kMaxFrames)))
+        fail(motion.source, "resampling to {} fps gives {} frames: more than {}", fps, frames, kMaxFrames);
+    const long count = long(frames);
     if (std::size_t(count) * std::size_t(motion.channel_count) > kMaxValues)
         fail(motion.source, "resampling to {} fps gives {} frames: too many", fps, count);
 

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <cmath>
 #include <regex>
 #include <sstream>
@@ -63,6 +64,9 @@ FrameRange parse_frame_range(const std::string& text, const std::string& what) {
 }
 
 namespace {
+
+// Vertices beyond this many metres from the origin (after units) are refused: a wrong unit or garbage.
+constexpr double kMaxExtent = 10000;
 
 std::string lower_extension(const fs::path& path) {
     auto ext = path.extension().string();
@@ -132,7 +136,13 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
         for (const auto& entry : fs::directory_iterator(folder, ec)) {
             std::smatch m;
             std::string name = entry.path().filename().string();
-            if (entry.is_regular_file() && std::regex_match(name, m, re)) frames.push_back({std::stoi(m[1].str()), entry.path()});
+            if (!entry.is_regular_file() || !std::regex_match(name, m, re)) continue;
+            int number = 0;
+            const std::string digits = m[1].str();
+            const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), number);
+            if (error != std::errc() || end != digits.data() + digits.size())
+                fail(entry.path().string(), "frame number {} is beyond {}", printable(digits), std::numeric_limits<int>::max());
+            frames.push_back({number, entry.path()});
         }
         std::sort(frames.begin(), frames.end(), [](const FrameFile& a, const FrameFile& b) { return a.number < b.number; });
         if (frames.empty()) fail(spec, "no file matches the pattern");
@@ -152,6 +162,84 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
 }
 
 namespace {
+
+// OBJ: every vertex coordinate finite, every face index naming a vertex of the file (1-based, or
+// negative counting back from the last vertex so far).
+void precheck_obj(std::istream& in, const std::string& source) {
+    std::string line;
+    std::uint64_t number = 0, vertex = 0;
+    std::uint64_t highest = 0, highest_line = 0;
+    while (std::getline(in, line)) {
+        ++number;
+        if (line.size() < 2 || !std::isspace(static_cast<unsigned char>(line[1]))) continue;
+        std::istringstream words(line.substr(2));
+        std::string word;
+        if (line[0] == 'v') {
+            for (int i = 0; i < 3 && words >> word; ++i) {
+                char* end = nullptr;
+                double value = std::strtod(word.c_str(), &end);
+                if (end == word.c_str() || !std::isfinite(value))
+                    fail(source + ":" + std::to_string(number), "vertex {} has a non-finite coordinate '{}'", vertex, printable(word));
+            }
+            ++vertex;
+        } else if (line[0] == 'f') {
+            while (words >> word) {
+                long long index = 0;
+                const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), index);
+                if (ec != std::errc() || index == 0 || (end != word.data() + word.size() && *end != '/'))
+                    fail(source + ":" + std::to_string(number), "face index '{}' is not a vertex number", printable(word));
+                if (index < 0 && std::uint64_t(-index) > vertex)
+                    fail(source + ":" + std::to_string(number), "face index {} reaches before the first vertex", index);
+                if (index > 0 && std::uint64_t(index) > highest) highest = std::uint64_t(index), highest_line = number;
+            }
+        }
+    }
+    if (highest > vertex) fail(source + ":" + std::to_string(highest_line), "face index {} is past the last of the file's {} vertices", highest, vertex);
+}
+
+// OFF: the header's counts must be matched by the file (OpenMesh reads a header that promises a
+// million vertices quadratically), coordinates finite, face indices in range.
+void precheck_off(std::istream& in, const std::string& source, std::uint64_t size) {
+    std::string line;
+    std::uint64_t number = 0;
+    auto next_line = [&]() {
+        while (std::getline(in, line)) {
+            ++number;
+            const auto hash = line.find('#');
+            if (hash != std::string::npos) line.erase(hash);
+            if (line.find_first_not_of(" \t\r") != std::string::npos) return true;
+        }
+        return false;
+    };
+    if (!next_line()) fail(source, "malformed OFF: the file is empty");
+    std::istringstream head(line);
+    std::string magic;
+    head >> magic;
+    if (magic.find("OFF") == std::string::npos) fail(source + ":1", "malformed OFF: it does not start with OFF");
+    if (magic != "OFF") return;  // COFF, NOFF, binary OFF ...: OpenMesh's own checks
+    long long vertices = -1, faces = -1;
+    if (!(head >> vertices) && next_line()) std::istringstream(line) >> vertices >> faces;
+    else head >> faces;
+    if (vertices < 0 || faces < 0) fail(fmt::format("{}:{}", source, number), "malformed OFF: expected the vertex and face counts");
+    if (std::uint64_t(vertices) * 6 + std::uint64_t(faces) * 8 > size)
+        fail(fmt::format("{}:{}", source, number), "malformed OFF: {} vertices and {} faces do not fit in a file of {} bytes", vertices, faces, size);
+    for (long long v = 0; v < vertices; ++v) {
+        if (!next_line()) fail(source, "malformed OFF: {} vertices declared, the file ends after {}", vertices, v);
+        std::istringstream words(line);
+        double x = 0, y = 0, z = 0;
+        if (!(words >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+            fail(fmt::format("{}:{}", source, number), "vertex {} does not have three finite coordinates", v);
+    }
+    for (long long f = 0; f < faces; ++f) {
+        if (!next_line()) fail(source, "malformed OFF: {} faces declared, the file ends after {}", faces, f);
+        std::istringstream words(line);
+        long long n = 0, index = 0;
+        words >> n;
+        for (long long k = 0; k < n; ++k)
+            if (!(words >> index) || index < 0 || index >= vertices)
+                fail(fmt::format("{}:{}", source, number), "face {} names vertex {}, not one of the {} vertices", f, index, vertices);
+    }
+}
 
 // Structural checks OpenMesh does not make before it allocates: a header that promises more data
 // than the file holds would make it allocate without bound or read garbage. Text formats are
@@ -204,21 +292,9 @@ void precheck_mesh_file(const fs::path& path) {
                 fail(source, "malformed binary STL: {} triangles need {} bytes but the file has {}", count, 84 + std::uint64_t(count) * 50, size);
         }
     } else if (ext == ".obj") {
-        std::string line;
-        std::uint64_t number = 0, vertex = 0;
-        while (std::getline(in, line)) {
-            ++number;
-            if (line.size() < 2 || line[0] != 'v' || !std::isspace(static_cast<unsigned char>(line[1]))) continue;
-            std::istringstream words(line.substr(2));
-            std::string word;
-            for (int i = 0; i < 3 && words >> word; ++i) {
-                char* end = nullptr;
-                double value = std::strtod(word.c_str(), &end);
-                if (end == word.c_str() || !std::isfinite(value))
-                    fail(source + ":" + std::to_string(number), "vertex {} has a non-finite coordinate '{}'", vertex, word);
-            }
-            ++vertex;
-        }
+        precheck_obj(in, source);
+    } else if (ext == ".off") {
+        precheck_off(in, source, size);
     }
 }
 
@@ -239,8 +315,12 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
     omerr().disconnect(diagnostics);
     if (!ok) fail(path.string(), "cannot read mesh (unreadable, malformed or unsupported file)");
     if (!diagnostics.str().empty()) {
-        std::string first_line = diagnostics.str().substr(0, diagnostics.str().find('\n'));
-        spdlog::warn("{}: OpenMesh dropped part of the mesh: {}", path.string(), first_line);
+        // Non-manifold faces are dropped by OpenMesh's half-edge structure and reported (captures
+        // have them); anything else it complains of is a broken file.
+        const std::string first_line = diagnostics.str().substr(0, diagnostics.str().find('\n'));
+        if (first_line.find("complex") == std::string::npos)
+            fail(path.string(), "malformed mesh: {}", printable(first_line));
+        spdlog::warn("{}: OpenMesh dropped part of the mesh: {}", path.string(), printable(first_line));
     }
     if (mesh.n_faces() == 0) fail(path.string(), "empty frame: the mesh has no faces");
 
@@ -252,6 +332,9 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
         if (!v.allFinite())
             fail(path.string(), "vertex {} has a non-finite coordinate ({}, {}, {})", vh.idx(), p[0], p[1], p[2]);
         out.vertices.push_back(to_z_up(v * units.metres_per_unit, units.up));
+        if (out.vertices.back().cwiseAbs().maxCoeff() > kMaxExtent)
+            fail(path.string(), "vertex {} lies {:.3g} m from the origin; amhv takes scenes within {} km of it (is --unit right?)", vh.idx(),
+                 out.vertices.back().norm(), kMaxExtent / 1000);
     }
     out.triangles.reserve(mesh.n_faces());
     for (auto fh : mesh.faces()) {

@@ -101,6 +101,39 @@ KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key) {
     return k;
 }
 
+// The rows of a group read back must be what a sweep of this segment writes: on the lattice, inside
+// the swept range, in (theta, y, x) order without repeats, and with the descriptors of their pose.
+// A row that fails names its line; a hand-edited or foreign file is refused, not trusted.
+void check_group(const std::vector<Solution>& group, const nlohmann::json& entry, const KeySweep& k, const Scene& scene,
+                 const fs::path& csv) {
+    const double h = scene.sampling.voxel;
+    SweepProblem problem;  // what describe() reads: the facings and the sampling
+    problem.voxel = h;
+    problem.angle_step_deg = scene.sampling.angle_step_deg;
+    problem.a.facing = k.facing_a;
+    problem.b.facing = k.facing_b;
+    const auto x_m = entry.at("range").at("x_m").get<std::array<double, 2>>(), y_m = entry.at("range").at("y_m").get<std::array<double, 2>>();
+    const int i_first = int(std::lround(x_m[0] / h)), i_last = int(std::lround(x_m[1] / h));
+    const int j_first = int(std::lround(y_m[0] / h)), j_last = int(std::lround(y_m[1] / h));
+    constexpr double kPrinted = 2e-6;  // the CSV's 6 decimals
+    std::array<int, 3> previous{-1, 0, 0};
+    for (std::size_t r = 0; r < group.size(); ++r) {
+        const Solution& s = group[r];
+        const std::string where = fmt::format("{}:{}", csv.string(), r + 2);
+        if (std::abs(s.x - s.i * h) > kPrinted || std::abs(s.y - s.j * h) > kPrinted)
+            fail(where, "pose ({}, {}) is not on the sweep's {} m lattice", s.x, s.y, h);
+        if (s.i < i_first || s.i > i_last || s.j < j_first || s.j > j_last)
+            fail(where, "pose ({}, {}) lies outside the range the segment was swept over", s.x, s.y);
+        const std::array<int, 3> order{s.k, s.j, s.i};
+        if (order <= previous) fail(where, "rows are not in the sweep's (theta, y, x) order, or repeat a pose");
+        previous = order;
+        const Solution expected = describe(problem, s.i, s.j, s.k);
+        if (std::abs(expected.distance - s.distance) > kPrinted || angles::degrees_apart(expected.theta_a_deg, s.theta_a_deg) > kPrinted ||
+            angles::degrees_apart(expected.theta_b_deg, s.theta_b_deg) > kPrinted)
+            fail(where, "the descriptors L, thetaA, thetaB are not those of the pose: the row was not written by this sweep");
+    }
+}
+
 }  // namespace
 
 Json result_header(const Scene& scene, const std::string& backend, const std::string& device) {
@@ -206,6 +239,7 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
             KeySweep k = key_sweep_of(s, key);
             const fs::path csv = dir / fmt::format("segment_{}", key.index) / "solutions.csv";
             k.solutions = read_solutions_csv(csv, scene.sampling.voxel, lattice);
+            check_group(k.solutions, s, k, scene, csv);
             if (k.solutions.size() != s.at("solutions").get<std::uint64_t>())
                 fail(csv.string(), "has {} rows but result.json says the group has {} solutions", k.solutions.size(),
                      s.at("solutions").get<std::uint64_t>());

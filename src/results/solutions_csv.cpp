@@ -79,6 +79,8 @@ std::vector<Solution> read_solutions_csv(const std::filesystem::path& path, doub
         sol.i = int(std::lround(sol.x / voxel));
         sol.j = int(std::lround(sol.y / voxel));
         sol.k = lattice.index_of_degrees(sol.theta_deg);
+        if (angles::degrees_apart(sol.theta_deg, lattice.wrapped_degrees(sol.k)) > 2e-6)
+            fail(fmt::format("{}:{}", path.string(), number), "theta {} deg is not on the sweep's {} deg steps", sol.theta_deg, lattice.step_deg);
         sol.theta_deg = lattice.wrapped_degrees(sol.k);  // as the sweep wrote it, from the index
         solutions.push_back(sol);
     }

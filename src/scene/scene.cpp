@@ -86,7 +86,10 @@ public:
         const toml::array* array = node->as_array();
         if (!array || array->size() != 2 || !array->get(0)->is_integer() || !array->get(1)->is_integer())
             error(key, node, "must be [first, last], two frame numbers");
-        std::array<int, 2> out{int(array->get(0)->value<std::int64_t>().value()), int(array->get(1)->value<std::int64_t>().value())};
+        const std::int64_t first = array->get(0)->value<std::int64_t>().value(), last = array->get(1)->value<std::int64_t>().value();
+        constexpr std::int64_t kMaxFrame = 10'000'000;
+        if (first < 0 || last < 0 || first > kMaxFrame || last > kMaxFrame) error(key, node, "frame numbers must lie in 0..{}", kMaxFrame);
+        std::array<int, 2> out{int(first), int(last)};
         if (out[0] > out[1]) error(key, node, "first frame {} is after last frame {}", out[0], out[1]);
         return out;
     }
@@ -286,13 +289,15 @@ Scene load_scene(const fs::path& file) {
     TableReader sampling = top.table("sampling");
     scene.sampling.voxel = sampling.number("voxel", 0, 1, false).value_or(0.01);
     if (scene.sampling.voxel < 0.001) sampling.error("voxel", sampling.get("voxel"), "{} m is below the 1 mm the solver supports", scene.sampling.voxel);
-    scene.sampling.angle_step_deg = sampling.number("angle_step_deg", 0, 180, false).value_or(2.0);
+    scene.sampling.angle_step_deg = sampling.number("angle_step_deg", 0.01, 180).value_or(2.0);
     double steps = 360.0 / scene.sampling.angle_step_deg;
     if (std::abs(steps - std::round(steps)) > 1e-9)
         sampling.error("angle_step_deg", sampling.get("angle_step_deg"), "{} does not divide 360", scene.sampling.angle_step_deg);
     for (const char* key : {"x_range", "y_range"}) {
         auto r = sampling.numbers<2>(key);
         if (r && (*r)[0] > (*r)[1]) sampling.error(key, sampling.get(key), "first value is above the second");
+        if (r && (std::abs((*r)[0]) > 1000 || std::abs((*r)[1]) > 1000))
+            sampling.error(key, sampling.get(key), "must lie within 1 km of A's root ([-1000, 1000] metres)");
         (std::string(key) == "x_range" ? scene.sampling.x_range : scene.sampling.y_range) = r;
     }
     sampling.finish();

@@ -52,6 +52,8 @@ std::map<int, TrackSample> read_track_csv(const std::string& path, const UnitsAn
             fail(fmt::format("{}:{}", path, line_number), "expected 7 numbers: frame, eye_x, eye_y, eye_z, gaze_x, gaze_y, gaze_z");
         for (double x : v)
             if (!std::isfinite(x)) fail(fmt::format("{}:{}", path, line_number), "non-finite value");
+        if (v[0] < 0 || v[0] > 10'000'000 || v[0] != std::floor(v[0]))
+            fail(fmt::format("{}:{}", path, line_number), "frame {} is not a whole frame number in 0..10000000", v[0]);
         Vec3 gaze = to_z_up(Vec3(v[4], v[5], v[6]), units.up);
         if (gaze.norm() < 1e-12) fail(fmt::format("{}:{}", path, line_number), "the gaze direction is zero");
         track[int(v[0])] = {to_z_up(Vec3(v[1], v[2], v[3]) * units.metres_per_unit, units.up), gaze.normalized()};

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv {
@@ -78,6 +79,9 @@ void validate(const SweepProblem& problem) {
     if (!(problem.angle_step_deg > 0) || std::abs(problem.range.angles * problem.angle_step_deg - 360.0) > 1e-6)
         fail("sampling.angle_step_deg", "{} angles of {} deg do not make the full circle", problem.range.angles, problem.angle_step_deg);
     if (problem.tolerance < 0) fail("tolerance", "must not be negative");
+    // One outcome byte per pose, and as much again for the candidates of a stage.
+    budget::require_memory(2 * problem.range.size(), fmt::format("the sweep's {} poses", problem.range.size()),
+                           "narrow x_range / y_range or use a larger angle step");
 }
 
 PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double voxel, int angles) {
@@ -114,14 +118,15 @@ PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double vox
 }
 
 void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x_range, const std::array<double, 2>* y_range) {
-    if (x_range) {
-        range.i_first = std::max(range.i_first, int(std::ceil((*x_range)[0] / voxel - 1e-9)));
-        range.i_last = std::min(range.i_last, int(std::floor((*x_range)[1] / voxel + 1e-9)));
-    }
-    if (y_range) {
-        range.j_first = std::max(range.j_first, int(std::ceil((*y_range)[0] / voxel - 1e-9)));
-        range.j_last = std::min(range.j_last, int(std::floor((*y_range)[1] / voxel + 1e-9)));
-    }
+    // In double precision, clamped to the automatic range before any conversion to int: a range of
+    // a billion metres narrows nothing and must not overflow.
+    auto narrow = [voxel](int& first, int& last, const std::array<double, 2>& metres) {
+        const double lo = std::ceil(metres[0] / voxel - 1e-9), hi = std::floor(metres[1] / voxel + 1e-9);
+        if (lo > double(first)) first = lo > double(last) + 1 ? last + 1 : int(lo);
+        if (hi < double(last)) last = hi < double(first) - 1 ? first - 1 : int(hi);
+    };
+    if (x_range) narrow(range.i_first, range.i_last, *x_range);
+    if (y_range) narrow(range.j_first, range.j_last, *y_range);
 }
 
 void SweepResult::count() {

@@ -457,8 +457,13 @@ bool VulkanVoxeliser::Call::dispatch_batch(Buffer& mask, int batch_first, int ba
     // The small buckets' flips and spans, and the lists of larger ones, must be in place before the
     // larger ones' atomics add theirs (the three lists' buckets are apart).
     sequence_.barrier();
+    // The three lists' buckets lie apart, but the stages share the key list and the flips, and the
+    // synchronisation validation (like a real GPU's caches) wants each stage's writes made visible
+    // before the next one reads the same buffers.
     sequence_.dispatch_indirect(v_.flip_medium_, columns_set, column_params, lists, 32);
+    sequence_.barrier();
     sequence_.dispatch_indirect(v_.flip_large_, columns_set, column_params, lists, 0);
+    sequence_.barrier();
     sequence_.dispatch_indirect(v_.flip_huge_, columns_set, column_params, lists, 16);
     // Every flip and span must be in place before the columns are written.
     sequence_.barrier();
