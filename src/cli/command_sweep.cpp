@@ -8,6 +8,7 @@
 #include "src/core/error.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 
 namespace amhv::cli {
 
@@ -22,6 +23,8 @@ struct SweepArguments {
 
 void run_check(const std::string& file) {
     Scene scene = load_scene(file);
+    // The objects' takes and tracks too: a scene whose files are broken is not valid.
+    ObjectSource a(scene.a), b(scene.b);
     std::cout << resolved_toml(scene);
 }
 

@@ -24,6 +24,7 @@ int run(int argc, char** argv) {
     CLI::App app{"amhv: spatiotemporal editing of two separately captured performances with augmented Motion History Volumes"};
     app.set_version_flag("--version", std::string("amhv ") + AMHV_VERSION);
     app.require_subcommand(1);
+    app.fallthrough();  // --max-memory, -q, -v also after the subcommand
     bool quiet = false, verbose = false;
     app.add_flag("-q,--quiet", quiet, "Only errors");
     app.add_flag("-v,--verbose", verbose, "More detail");

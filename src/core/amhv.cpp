@@ -77,10 +77,9 @@ void release_recycled_volume() {
 
 Amhv::Amhv(VoxelGrid grid, int frames) : grid_(grid), frames_(frames), words_((frames + 31) / 32) {
     const std::uint64_t bytes = std::uint64_t(words_) * grid_.voxel_count() * sizeof(std::uint32_t);
-    if (bytes > budget::memory_limit())
-        budget::require_memory(bytes, fmt::format("an aMHV of {} x {} x {} voxels over {} frames", grid_.dims[0], grid_.dims[1], grid_.dims[2], frames),
-                               fmt::format("use a voxel of at least {} mm or fewer frames",
-                                           budget::voxel_that_fits(grid_.voxel, bytes, budget::memory_limit()) * 1000));
+    reservation_ = budget::Reservation(
+        bytes, fmt::format("an aMHV of {} x {} x {} voxels of {} m over {} frames", grid_.dims[0], grid_.dims[1], grid_.dims[2], grid_.voxel, frames),
+        fmt::format("use a voxel of at least {} mm or fewer frames", budget::voxel_that_fits(grid_.voxel, 6 * bytes, budget::memory_limit()) * 1000));
     if (frames <= 0) throw Error(fmt::format("an aMHV needs at least one frame, got {}", frames));
     mask_.resize(std::size_t(words_) * grid_.voxel_count());  // zero, see ZeroedAllocator
 }

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "src/core/budget.hpp"
 #include "src/core/grid.hpp"
 
 namespace amhv {
@@ -105,6 +106,7 @@ private:
     VoxelGrid grid_;
     int frames_ = 0;
     int words_ = 0;
+    budget::Reservation reservation_;  // the mask's bytes, against the run's memory budget
     Mask mask_;
 };
 

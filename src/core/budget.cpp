@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "src/core/error.hpp"
 
@@ -12,6 +13,7 @@ namespace amhv::budget {
 namespace {
 
 std::atomic<std::uint64_t> g_limit{0};  // 0: the machine's
+std::atomic<std::uint64_t> g_held{0};   // all Reservations together
 
 std::uint64_t available_memory() {
     std::ifstream in("/proc/meminfo");
@@ -50,6 +52,36 @@ void require_disk(const std::filesystem::path& where, std::uint64_t bytes, const
     throw Error(fmt::format("{} needs ~{} of disk, more than the {} free at {}; {}", what, gigabytes(bytes), gigabytes(space.available),
                             where.string(), hint));
 }
+
+namespace {
+
+// The limit reservations are held to: --max-memory, or what was available when the first one was made.
+std::uint64_t reservation_limit() {
+    if (const std::uint64_t set = g_limit.load()) return set;
+    static const std::uint64_t at_start = available_memory();
+    return at_start;
+}
+
+}  // namespace
+
+Reservation::Reservation(std::uint64_t bytes, const std::string& what, const std::string& hint) {
+    const std::uint64_t limit = reservation_limit(), held = g_held.fetch_add(bytes) + bytes;
+    if (held > limit) {
+        g_held.fetch_sub(bytes);
+        const std::string others = held > bytes ? fmt::format(" beside the {} the run already holds", gigabytes(held - bytes)) : "";
+        throw Error(fmt::format("{} needs ~{} of memory{}, more than the {} {}; {}", what, gigabytes(bytes), others, gigabytes(limit),
+                                g_limit.load() ? "--max-memory allows" : "this machine had available", hint));
+    }
+    bytes_ = bytes;
+}
+
+Reservation::Reservation(const Reservation& other) : bytes_(other.bytes_) { g_held.fetch_add(bytes_); }
+Reservation::Reservation(Reservation&& other) noexcept : bytes_(std::exchange(other.bytes_, 0)) {}
+Reservation& Reservation::operator=(Reservation other) noexcept {
+    std::swap(bytes_, other.bytes_);
+    return *this;
+}
+Reservation::~Reservation() { g_held.fetch_sub(bytes_); }
 
 double voxel_that_fits(double voxel, std::uint64_t bytes, std::uint64_t limit) {
     const double scale = std::cbrt(double(bytes) / double(std::max<std::uint64_t>(limit, 1)));

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv {
@@ -68,6 +69,14 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
     SweepObject object;
     object.name = name;
     VoxelGrid grid = grid_covering(bounds, voxel, "object " + name);
+    {
+        // Before any voxel is written: its whole, interest and fidelity volumes, and as much again
+        // while the sweep cuts them into columns and runs.
+        const std::uint64_t bytes = std::uint64_t((frames.size() + 31) / 32) * grid.voxel_count() * 4;
+        const budget::Reservation check(6 * bytes, fmt::format("object {}'s volumes in this key segment ({} x {} x {} voxels of {} m, {} frames)", name,
+                                                               grid.dims[0], grid.dims[1], grid.dims[2], voxel, frames.size()),
+                                        fmt::format("use a voxel of at least {} mm", budget::voxel_that_fits(voxel, 6 * bytes, budget::memory_limit()) * 1000));
+    }
     object.whole = voxelise_frames(whole, grid, voxeliser);
     switch (parts.interest) {
         case PartRule::Meshes: object.interest = voxelise_frames(interest, grid, voxeliser); break;

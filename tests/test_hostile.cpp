@@ -1,0 +1,301 @@
+// A corpus of hostile inputs across every reader (BVH, OBJ, PLY, OFF, STL, scene TOML, tracks,
+// labels, a sweep folder for --from-sweep, command-line numbers): each generated here, each must
+// end in its own exact refusal: a non-zero exit, one "amhv: error:" line naming the file (and line)
+// and what is wrong, no crash, no hang, no output folder. docs/scenes.md, "What amhv refuses".
+#include <fstream>
+#include <regex>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Hostile {
+    std::string name;
+    // Files to write into the case's folder (relative path -> content); "@cmu" copies the captures,
+    // "@sweep" copies a good sweep of scene.toml into sweep/.
+    std::vector<std::pair<std::string, std::string>> files;
+    std::string arguments;  // {d} is the case's folder
+    std::string expected;   // a part of the error line
+};
+
+const std::string kTetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+
+// A small BVH take: one root joint and a child, `frames` rows of `row`.
+std::string bvh(const std::string& frames, const std::string& frame_time, const std::string& row, int rows) {
+    std::string text = "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+                       " JOINT Chest\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 10 0\n  }\n }\n}\n"
+                       "MOTION\nFrames: " + frames + "\nFrame Time: " + frame_time + "\n";
+    for (int r = 0; r < rows; ++r) text += row + "\n";
+    return text;
+}
+const std::string kRow = "0 30 0 0 0 0 0 0 0";
+
+// The scene every scene case edits: the handshake at 4 cm / 30 deg (fast), on the copied captures.
+const std::string kScene = R"([sampling]
+voxel = 0.04
+angle_step_deg = 30.0
+
+[objects.A]
+bvh = "cmu/18_01.bvh"
+
+[objects.B]
+bvh = "cmu/19_01.bvh"
+
+[[segments]]
+a = [108, 147]
+b = [108, 147]
+type = "0&0a"
+interest = { A = { parts = ["right_hand"] }, B = { parts = ["right_hand"] } }
+fidelity = { A = { parts_except = ["right_upper_arm", "right_forearm", "right_hand"] }, B = { parts_except = ["right_upper_arm", "right_forearm", "right_hand"] } }
+)";
+
+std::string scene_with(const std::string& from, const std::string& to) {
+    std::string s = kScene;
+    const auto at = s.find(from);
+    if (at == std::string::npos) ADD_FAILURE() << "scene has no " << from;
+    else s.replace(at, from.size(), to);
+    return s;
+}
+
+// Mesh-sequence scene: A and B are the tetrahedron frames of folder m/ with a track.
+const std::string kMeshScene = R"([sampling]
+voxel = 0.05
+angle_step_deg = 90.0
+
+[objects.A]
+meshes = "m/f_%04d.obj"
+track = "track.csv"
+
+[objects.B]
+meshes = "m/f_%04d.obj"
+
+[[segments]]
+a = [0, 1]
+b = [0, 1]
+type = "0&0b"
+)";
+const std::string kTrack = "frame,eye_x,eye_y,eye_z,gaze_x,gaze_y,gaze_z\n0,0,0,1.6,1,0,0\n1,0,0,1.6,1,0,0\n";
+
+std::string mhv(const std::string& input, const std::string& voxel = "0.05") {
+    return "mhv --meshes '{d}/" + input + "' --voxel " + voxel + " --backend cpu --out '{d}/out'";
+}
+const std::string kEditFromSweep = "edit '{d}/scene.toml' --from-sweep '{d}/sweep' --backend cpu --no-frames --out '{d}/out'";
+
+// Line 2 (the first row) of the good sweep's group, replaced by `row`.
+std::string first_row_replaced(const std::string& csv, const std::string& row) {
+    const auto first = csv.find('\n') + 1, second = csv.find('\n', first);
+    return csv.substr(0, first) + row + csv.substr(second);
+}
+
+class HostileInput : public ::testing::TestWithParam<Hostile> {
+public:
+    static void SetUpTestSuite() {
+        folder_ = new test::TempDir();
+        fs::copy(test::source_dir() / "data" / "cmu", folder_->path() / "cmu");
+        std::ofstream(folder_->path() / "scene.toml") << kScene;
+        auto result = test::run_amhv(fmt::format("sweep '{0}/scene.toml' --no-maps --backend cpu --out '{0}/sweep'", folder_->path().string()));
+        ASSERT_EQ(result.exit_code, 0) << result.output;
+        csv_ = test::read_text(folder_->path() / "sweep" / "segment_1" / "solutions.csv");
+        ASSERT_GT(std::count(csv_.begin(), csv_.end(), '\n'), 3);
+    }
+    static void TearDownTestSuite() {
+        delete folder_;
+        folder_ = nullptr;
+    }
+    static const std::string& csv() { return csv_; }
+
+protected:
+    static test::TempDir* folder_;
+    static std::string csv_;
+};
+test::TempDir* HostileInput::folder_ = nullptr;
+std::string HostileInput::csv_;
+
+TEST_P(HostileInput, IsRefusedInOneLine) {
+    const Hostile& c = GetParam();
+    test::TempDir tmp;
+    const fs::path d = tmp.path();
+    for (const auto& [path, content] : c.files) {
+        if (path == "@cmu") {
+            fs::copy(test::source_dir() / "data" / "cmu", d / "cmu");
+            continue;
+        }
+        if (path == "@sweep") {
+            fs::copy(folder_->path() / "sweep", d / "sweep", fs::copy_options::recursive);
+            continue;
+        }
+        fs::create_directories((d / path).parent_path());
+        std::string text = content;
+        if (text.rfind("@csv:", 0) == 0) text = first_row_replaced(csv_, text.substr(5));
+        if (text == "@csv-swap") {  // the first two rows exchanged
+            const auto first = csv_.find('\n') + 1, second = csv_.find('\n', first) + 1, third = csv_.find('\n', second) + 1;
+            text = csv_.substr(0, first) + csv_.substr(second, third - second) + csv_.substr(first, second - first) + csv_.substr(third);
+        }
+        if (text == "@csv-short") text = csv_.substr(0, csv_.rfind('\n', csv_.size() - 2) + 1);
+        std::ofstream(d / path, std::ios::binary) << text;
+    }
+    const std::string arguments = std::regex_replace(c.arguments, std::regex("\\{d\\}"), d.string());
+    const auto result = test::run_shell("timeout 60 " + test::amhv_command() + " " + arguments);
+    // 1 for amhv's own refusals; CLI11's parse errors have codes of their own (100..120).
+    EXPECT_TRUE(result.exit_code == 1 || (result.exit_code >= 100 && result.exit_code <= 120)) << "exit " << result.exit_code << ": " << result.output;
+    EXPECT_EQ(result.output.find("Sanitizer"), std::string::npos) << result.output;
+    EXPECT_EQ(result.output.find("runtime error:"), std::string::npos) << result.output;
+    EXPECT_EQ(test::one_line_error(result), 1) << result.output;
+    EXPECT_NE(result.output.find(c.expected), std::string::npos) << "expected '" << c.expected << "' in:\n" << result.output;
+    EXPECT_FALSE(fs::exists(d / "out")) << result.output;
+}
+
+std::vector<Hostile> bvh_cases() {
+    const std::string imp = "import-bvh '{d}/t.bvh' --out '{d}/out'";
+    return {
+        {"BvhFrameTimeHuge", {{"t.bvh", bvh("2", "1e308", kRow, 2)}}, imp + " --fps 30", "t.bvh:18: frame time 1e+308 s is not between"},
+        {"BvhFrameTimeZero", {{"t.bvh", bvh("2", "0", kRow, 2)}}, imp, "t.bvh:18: frame time 0 s"},
+        {"BvhFrameTimeNaN", {{"t.bvh", bvh("2", "nan", kRow, 2)}}, imp, "t.bvh:18: frame time 'nan' is not a finite number"},
+        {"BvhFramesHuge", {{"t.bvh", bvh("4294967296", "0.01", kRow, 2)}}, imp, "t.bvh:17: frame count 4294967296 is not a whole number in 0..10000000"},
+        {"BvhFramesFraction", {{"t.bvh", bvh("0.5", "0.01", kRow, 2)}}, imp, "t.bvh:17: frame count 0.5 is not a whole number"},
+        {"BvhNotABvh", {{"t.bvh", "root:x:0:0:root:/root:/bin/bash\nsecret line\n"}}, imp, "t.bvh:1: is not a BVH file"},
+        {"BvhBinary", {{"t.bvh", std::string("\x7f" "ELF\x02\x01\x01\0\0\0\x1b[31m", 14)}}, imp, "t.bvh:1: is not a BVH file"},
+        {"BvhTruncated", {{"t.bvh", bvh("3", "0.01", kRow, 2)}}, imp, "motion block is truncated: 2 of 3 frames"},
+        {"BvhValueNaN", {{"t.bvh", bvh("1", "0.01", "0 30 0 0 nan 0 0 0 0", 1)}}, imp, "is not a finite number"},
+        {"BvhValueOverflow", {{"t.bvh", bvh("1", "0.01", "0 30 0 0 1e400 0 0 0 0", 1)}}, imp, "is not a finite number"},
+        {"BvhRowTooShort", {{"t.bvh", bvh("1", "0.01", "0 30 0 0 0 0 0 0", 1)}}, imp, "t.bvh:19: motion block is truncated: frame 0 of 1 has 8 of 9 values"},
+        {"BvhEmpty", {{"t.bvh", ""}}, imp, "t.bvh:1: file ends where HIERARCHY was expected"},
+        {"BvhFpsHuge", {{"t.bvh", bvh("2", "0.01", kRow, 2)}}, imp + " --fps 1e308", "--fps: 1e+308 is not a frame rate"},
+        {"BvhMissing", {}, imp, "t.bvh: cannot open BVH file"},
+    };
+}
+
+std::vector<Hostile> mesh_cases() {
+    const std::string obj = mhv("m/f_%04d.obj");
+    return {
+        {"ObjNaN", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 nan 0\nv 0 0 1\nf 1 3 2\n"}}, obj, "f_0000.obj:3: vertex 2 has a non-finite coordinate 'nan'"},
+        {"ObjInfinite", {{"m/f_0000.obj", "v 0 0 0\nv inf 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\n"}}, obj, "f_0000.obj:2: vertex 1 has a non-finite coordinate 'inf'"},
+        {"ObjOverflow", {{"m/f_0000.obj", "v 0 0 0\nv 1e400 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\n"}}, obj, "f_0000.obj:2: vertex 1 has a non-finite coordinate"},
+        {"ObjFar", {{"m/f_0000.obj", "v 1e12 0 0\nv 1000000000001 0 0\nv 1e12 1 0\nv 1e12 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"}}, obj,
+         "lies 1e+12 m from the origin"},
+        {"ObjFarInCentimetres", {{"m/f_0000.obj", "v 2e6 0 0\nv 2000001 0 0\nv 2e6 1 0\nv 2e6 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"}},
+         obj + " --unit cm", "m from the origin; amhv takes scenes within 10 km"},
+        {"ObjIndexPastEnd", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 9\nf 1 2 4\n"}}, obj, "f_0000.obj:5: face index 9 is past the last of the file's 4 vertices"},
+        {"ObjIndexZero", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n"}}, obj, "f_0000.obj:4: face index '0' is not a vertex number"},
+        {"ObjIndexBeforeFirst", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -7\n"}}, obj, "f_0000.obj:4: face index -7 reaches before the first vertex"},
+        {"ObjIndexText", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n"}}, obj, "f_0000.obj:4: face index 'x' is not a vertex number"},
+        {"ObjIndexHuge", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n"}}, obj, "f_0000.obj:4: face index '99999999999999999999' is not a vertex number"},
+        {"ObjNoFaces", {{"m/f_0000.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"}}, obj, "f_0000.obj: empty frame: the mesh has no faces"},
+        {"ObjEmpty", {{"m/f_0000.obj", ""}}, obj, "f_0000.obj"},
+        {"PlyBinaryShort", {{"m/f_0000.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000\nproperty float x\nproperty float y\n"
+                                             "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x01\x02"}},
+         mhv("m/f_%04d.ply"), "malformed PLY: 1000000 vertices and 1 faces need at least"},
+        {"PlyAsciiShort", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n"}},
+         mhv("m/f_%04d.ply"), "malformed PLY: 4 vertices and 1 faces declared but only 2 lines follow"},
+        {"PlyNoEndHeader", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 4\n"}}, mhv("m/f_%04d.ply"), "malformed PLY: no end_header"},
+        {"PlyIndexPastEnd", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                              "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"}},
+         mhv("m/f_%04d.ply"), "f_0000.ply"},
+        {"OffHeaderHuge", {{"m/f_0000.off", "OFF\n1000000 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"}}, mhv("m/f_%04d.off"),
+         "malformed OFF: 1000000 vertices and 1 faces do not fit in a file of"},
+        {"OffIndexPastEnd", {{"m/f_0000.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"}}, mhv("m/f_%04d.off"), "f_0000.off:6: face 0 names vertex 5"},
+        {"OffNaN", {{"m/f_0000.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"}}, mhv("m/f_%04d.off"), "f_0000.off:4: vertex 1 does not have three finite coordinates"},
+        {"OffNoCounts", {{"m/f_0000.off", "OFF\n\n"}}, mhv("m/f_%04d.off"), "malformed OFF"},
+        {"OffNotOff", {{"m/f_0000.off", "PLY\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
+        {"StlCountMismatch", {{"m/f_0000.stl", std::string(80, 'x') + std::string("\x10\0\0\0", 4) + std::string(50, '\0')}}, mhv("m/f_%04d.stl"),
+         "malformed binary STL: 16 triangles need 884 bytes but the file has 134"},
+        {"StlShort", {{"m/f_0000.stl", "abc"}}, mhv("m/f_%04d.stl"), "malformed binary STL: shorter than its 84-byte header"},
+        {"FrameNumberHuge", {{"m/f_99999999999.obj", kTetra}}, mhv("m/f_%d.obj"), "frame number 99999999999 is beyond"},
+        {"FolderWithoutMeshes", {{"m/readme.txt", "x"}}, "mhv --meshes '{d}/m' --out '{d}/out'", "folder holds no OBJ, PLY, OFF or STL files"},
+    };
+}
+
+std::vector<Hostile> scene_cases() {
+    const std::string check = "check '{d}/scene.toml'", sweep = "sweep '{d}/scene.toml' --backend cpu --out '{d}/out'";
+    auto with = [](const std::string& from, const std::string& to) {
+        return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"scene.toml", scene_with(from, to)}};
+    };
+    return {
+        {"SceneXRangeHuge", with("angle_step_deg = 30.0", "angle_step_deg = 30.0\nx_range = [-1e9, 1e9]"), check, "scene.toml:4: sampling.x_range: must lie within 1 km"},
+        {"SceneAngleStepTiny", with("angle_step_deg = 30.0", "angle_step_deg = 9.5367431640625e-07"), check, "scene.toml:3: sampling.angle_step_deg"},
+        {"SceneVoxelZero", with("voxel = 0.04", "voxel = 0.0"), check, "scene.toml:2: sampling.voxel"},
+        {"SceneVoxelNaN", with("voxel = 0.04", "voxel = nan"), check, "scene.toml:2: sampling.voxel"},
+        {"SceneVoxelHuge", with("voxel = 0.04", "voxel = 1e300"), check, "scene.toml:2: sampling.voxel"},
+        {"SceneFramesWrap", with("a = [108, 147]", "a = [108, 4294967296]"), check, "scene.toml:12: segments[1].a: frame numbers must lie in 0..10000000"},
+        {"SceneFramesBeyondTake", with("a = [108, 147]", "a = [108, 9000]"), check, "scene.toml"},
+        {"SceneUnknownKey", with("type = \"0&0a\"", "type = \"0&0a\"\nvisibilty = true"), check, "visibilty"},
+        {"SceneWrongType", with("voxel = 0.04", "voxel = \"fine\""), check, "scene.toml:2: sampling.voxel: must be a number"},
+        {"SceneUnknownInteraction", with("type = \"0&0a\"", "type = \"hug\""), check, "scene.toml:14: segments[1].type: unknown interaction type 'hug'"},
+        {"SceneNegativeTolerance", with("type = \"0&0a\"", "type = \"0&0a\"\ntolerance = -3"), check, "tolerance"},
+        {"SceneSyntax", with("[[segments]]", "[[segments]"), check, "scene.toml:11: Error while parsing table header"},
+        {"SceneBvhMissing", {{"scene.toml", kScene}}, check, "18_01.bvh"},
+        {"SceneMemory", with("voxel = 0.04", "voxel = 0.002"), sweep + " --max-memory 0.5", "more than the 0.5 GB --max-memory allows; use a voxel of at least"},
+        {"TrackFrameHuge", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1e20,0,0,1.6,1,0,0\n"}},
+         check, "track.csv:4: frame 1e+20 is not a whole frame number"},
+        {"TrackFrameFraction", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "0.5,0,0,1.6,1,0,0\n"}},
+         check, "track.csv:4: frame 0.5 is not a whole frame number"},
+        {"TrackNaN", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1,nan,0,1.6,1,0,0\n"}},
+         check, "track.csv:4"},
+        {"TrackZeroGaze", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1,0,0,1.6,0,0,0\n"}},
+         check, "track.csv:4: the gaze direction is zero"},
+    };
+}
+
+std::vector<Hostile> sweep_folder_cases() {
+    auto tampered = [](const std::string& csv) {
+        return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/segment_1/solutions.csv", csv}};
+    };
+    const std::string at = "solutions.csv:2: ";
+    return {
+        {"GroupRowHuge", tampered("@csv:1e300,0.44,0,0.5,0,0"), kEditFromSweep, at + "pose (1e+300, 0.44) is not on the sweep's 0.04 m lattice"},
+        {"GroupRowNaN", tampered("@csv:nan,0.44,0,0.5,0,0"), kEditFromSweep, at + "expected six numbers"},
+        {"GroupRowOffLattice", tampered("@csv:0.290000,0.440000,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.29, 0.44) is not on the sweep's 0.04 m lattice"},
+        {"GroupRowAngleOffLattice", tampered("@csv:0.280000,0.440000,1.000000,0.5,0,0"), kEditFromSweep, at + "theta 1 deg is not on the sweep's 30 deg steps"},
+        {"GroupRowOutsideRange", tampered("@csv:400.000000,0.440000,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (400, 0.44) lies outside the range"},
+        {"GroupRowDescriptors", tampered("@csv:0.280000,0.440000,0.000000,0.521536,10.0,-17.523381"), kEditFromSweep, at + "the descriptors L, thetaA, thetaB are not those of the pose"},
+        {"GroupRowsSwapped", tampered("@csv-swap"), kEditFromSweep, "solutions.csv:3: rows are not in the sweep's (theta, y, x) order"},
+        {"GroupRowMissing", tampered("@csv-short"), kEditFromSweep, "solutions.csv: has"},
+        {"GroupHeader", tampered("a,b,c\n"), kEditFromSweep, "solutions.csv:1: expected the header"},
+        {"ResultNotJson", {{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/result.json", "{ not json"}}, kEditFromSweep, "result.json: is not valid JSON"},
+        {"ResultOtherSampling", {{"@cmu", ""}, {"scene.toml", scene_with("voxel = 0.04", "voxel = 0.05")}, {"@sweep", ""}}, kEditFromSweep,
+         "result.json: was swept at 0.04 m / 30 deg but the scene asks for 0.05 m / 30 deg"},
+        {"ResultMissing", {{"@cmu", ""}, {"scene.toml", kScene}, {"sweep/notes.txt", "x"}}, kEditFromSweep, "result.json: cannot open"},
+    };
+}
+
+std::vector<Hostile> command_line_cases() {
+    auto tetra_at = [](const std::string& voxel) { return mhv("m/f_%04d.obj", voxel); };
+    const std::string tetra = mhv("m/f_%04d.obj");
+    const std::vector<std::pair<std::string, std::string>> m{{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}};
+    return {
+        {"VoxelZero", m, tetra_at("0"), "voxel size must be a positive number"},
+        {"VoxelNaN", m, tetra_at("nan"), "voxel size must be a positive number"},
+        {"VoxelTiny", m, tetra_at("1e-9"), "voxels along"},
+        {"ResampleHuge", m, tetra + " --resample 2000000000", "--resample: 2000000000 frames is more than"},
+        {"ResampleNegative", m, tetra + " --resample -3", "--resample: the frame count must be positive"},
+        {"FramesBackwards", m, tetra + " --frames 1:0", "frame range '1:0' is empty or negative"},
+        {"FramesMissing", m, tetra + " --frames 0:7", "frame 2 of --frames 0:7 is missing"},
+        {"FramesText", m, tetra + " --frames a:b", "frame range 'a:b' is not FIRST:LAST"},
+        {"UnitNegative", m, tetra + " --unit -1", "unit '-1' is not m, cm, mm, in, ft or a positive number"},
+        {"UpAxisBad", m, tetra + " --up w", "up axis 'w' is not x, y or z"},
+        {"AxisBad", m, tetra + " --axis q", "--axis: 'q' is not x, y or z"},
+        {"MaxMemoryNegative", m, tetra + " --max-memory -1", "max-memory"},
+        {"SegmentOutOfRange", {{"@cmu", ""}, {"scene.toml", kScene}}, "sweep '{d}/scene.toml' --segment 9 --out '{d}/out'", "--segment: 9 is not a key segment"},
+        {"ControlCharactersInName", {{"m/f_0000.obj", kTetra}}, "mhv --meshes '{d}/m/\x1b[31mred_%04d.obj' --out '{d}/out'", "\\x1b[31mred"},
+    };
+}
+
+std::vector<Hostile> corpus() {
+    std::vector<Hostile> all;
+    for (auto part : {bvh_cases(), mesh_cases(), scene_cases(), sweep_folder_cases(), command_line_cases()}) all.insert(all.end(), part.begin(), part.end());
+    return all;
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, HostileInput, ::testing::ValuesIn(corpus()), [](const auto& param_info) { return param_info.param.name; });
+
+TEST(HostileCorpus, HasAtLeastSixtyCases) { EXPECT_GE(corpus().size(), 60u); }
+
+}  // namespace
+}  // namespace amhv
