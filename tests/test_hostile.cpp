@@ -7,6 +7,9 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "src/sweep/problem.hpp"
 
 #include "support.hpp"
 
@@ -296,6 +299,43 @@ std::vector<Hostile> corpus() {
 INSTANTIATE_TEST_SUITE_P(Corpus, HostileInput, ::testing::ValuesIn(corpus()), [](const auto& param_info) { return param_info.param.name; });
 
 TEST(HostileCorpus, HasAtLeastSixtyCases) { EXPECT_GE(corpus().size(), 60u); }
+
+}  // namespace
+}  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// A group row that is consistent (on the lattice, in range, its own descriptors) but not a solution:
+// the edit sweeps the pose it chose again and refuses it.
+TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
+    test::TempDir tmp;
+    const fs::path d = tmp.path();
+    fs::copy(test::source_dir() / "data" / "cmu", d / "cmu");
+    std::ofstream(d / "scene.toml") << kScene;
+    auto sweep = test::run_amhv(fmt::format("sweep '{0}/scene.toml' --no-maps --backend cpu --out '{0}/sweep'", d.string()));
+    ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
+    auto json = nlohmann::json::parse(test::read_text(d / "sweep" / "result.json"));
+    auto& segment = json["segments"][0];
+    SweepProblem problem;
+    problem.voxel = 0.04;
+    problem.angle_step_deg = 30;
+    problem.a.facing = Eigen::Vector2d(segment["facing"]["A"][0].get<double>(), segment["facing"]["A"][1].get<double>());
+    problem.b.facing = Eigen::Vector2d(segment["facing"]["B"][0].get<double>(), segment["facing"]["B"][1].get<double>());
+    // The range's first corner: far from A, no contact.
+    const int i = int(std::lround(segment["range"]["x_m"][0].get<double>() / 0.04)), j = int(std::lround(segment["range"]["y_m"][0].get<double>() / 0.04));
+    const Solution s = describe(problem, i, j, 0);
+    std::ofstream(d / "sweep" / "segment_1" / "solutions.csv")
+        << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n"
+        << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
+    segment["solutions"] = 1;
+    std::ofstream(d / "sweep" / "result.json") << json.dump(2);
+    auto edit = test::run_amhv(fmt::format("edit '{0}/scene.toml' --from-sweep '{0}/sweep' --backend cpu --no-frames --out '{0}/out'", d.string()));
+    EXPECT_EQ(edit.exit_code, 1) << edit.output;
+    EXPECT_EQ(test::one_line_error(edit), 1) << edit.output;
+    EXPECT_NE(edit.output.find("is not a solution of key segment 1: it fails contact"), std::string::npos) << edit.output;
+    EXPECT_FALSE(fs::exists(d / "out"));
+}
 
 }  // namespace
 }  // namespace amhv

@@ -3,8 +3,6 @@
 #include <iostream>
 #include <optional>
 
-#include <unistd.h>
-
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -13,15 +11,11 @@
 #include "src/cli/bvh_options.hpp"
 #include "src/cli/commands.hpp"
 #include "src/core/error.hpp"
-#include "src/core/normalise.hpp"
-#include "src/voxelise/voxelise.hpp"
-#include "src/io/amhv_file.hpp"
 #include "src/io/bvh.hpp"
-#include "src/io/exr_slices.hpp"
 #include "src/io/mesh_sequence.hpp"
-#include "src/io/files.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/io/vdb_file.hpp"
+#include "src/pipeline/mhv_stage.hpp"
 
 namespace amhv::cli {
 
@@ -49,14 +43,21 @@ private:
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// Refuses up front a volume that cannot fit in memory, with the numbers.
-void check_memory(const VoxelGrid& grid, int frames) {
-    double needed = double(grid.voxel_count()) * ((frames + 31) / 32) * 4.0;
-    double available = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
-    if (needed > 0.5 * available)
-        throw Error(fmt::format("the aMHV needs {:.1f} GiB ({} x {} x {} voxels x {} frames) but this machine has {:.1f} GiB of "
-                                "memory; use a larger --voxel or fewer frames",
-                                needed / (1 << 30), grid.dims[0], grid.dims[1], grid.dims[2], frames, available / (1 << 30)));
+// Reads the segment the arguments name: a mesh sequence, or a BVH take turned into a body.
+MeshSequence read_segment(const MhvArguments& args, std::string& source) {
+    std::optional<FrameRange> range;
+    if (!args.frames.empty()) range = parse_frame_range(args.frames, "--frames");
+    if (!args.meshes.empty()) {
+        UnitsAndAxes units{parse_unit(args.unit.empty() ? "m" : args.unit, "--unit"), parse_up_axis(args.up.empty() ? "z" : args.up, "--up")};
+        source = args.meshes;
+        return read_mesh_sequence(args.meshes, range, units);
+    }
+    SkeletonBodyOptions options;
+    if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
+    if (!args.up.empty()) options.units.up = parse_up_axis(args.up, "--up");
+    BvhMotion motion = load_bvh(args.bvh, bvh_load_options(args.bvh_options));
+    source = args.bvh;
+    return skeleton_body_sequence(motion, bvh_frames(motion, args.frames), options);
 }
 
 void run_mhv(const MhvArguments& args) {
@@ -67,94 +68,27 @@ void run_mhv(const MhvArguments& args) {
     if (args.axis.size() != 1 || std::string("xyz").find(args.axis) == std::string::npos)
         throw Error(fmt::format("--axis: '{}' is not x, y or z", args.axis));
 
-    // 1. Read the segment.
-    MeshSequence sequence;
-    std::optional<FrameRange> range;
-    if (!args.frames.empty()) range = parse_frame_range(args.frames, "--frames");
     std::string source;
-    if (!args.meshes.empty()) {
-        UnitsAndAxes units{parse_unit(args.unit.empty() ? "m" : args.unit, "--unit"), parse_up_axis(args.up.empty() ? "z" : args.up, "--up")};
-        sequence = read_mesh_sequence(args.meshes, range, units);
-        source = args.meshes;
-    } else {
-        SkeletonBodyOptions options;
-        if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
-        if (!args.up.empty()) options.units.up = parse_up_axis(args.up, "--up");
-        BvhMotion motion = load_bvh(args.bvh, bvh_load_options(args.bvh_options));
-        sequence = skeleton_body_sequence(motion, bvh_frames(motion, args.frames), options);
-        source = args.bvh;
-    }
+    const MeshSequence sequence = read_segment(args, source);
     timings["read"] = clock.lap();
-
-    // 2. Temporal normalisation to --resample frames.
-    std::vector<int> source_frames(sequence.frames.size());
-    for (std::size_t i = 0; i < source_frames.size(); ++i) source_frames[i] = int(i);
-    // A segment resampled to many frames is as many frame meshes and a mask word per 32 of them.
-    if (args.resample > 100'000) throw Error(fmt::format("--resample: {} frames is more than the 100000 a segment may have", args.resample));
-    if (args.resample > 0) source_frames = resample_indices(int(sequence.frames.size()), args.resample);
-    else if (args.resample < 0) throw Error("--resample: the frame count must be positive");
-    std::vector<const MeshFrame*> frames;
-    for (int f : source_frames) frames.push_back(&sequence.frames[std::size_t(f)]);
-
-    VoxelGrid grid = grid_covering(sequence.bounds(), args.voxel, source);
-    check_memory(grid, int(frames.size()));
-    VoxelisationInput input = prepare_voxelisation(frames, grid);
+    const pipeline::MhvPlan plan = pipeline::plan_mhv(sequence, source, args.voxel, args.resample);
     timings["prepare"] = clock.lap();
-
-    // 3. Voxelise.
     Backend backend(args.backend, args.device);
-    const std::string& device = backend.device();
-    Voxeliser& voxeliser = backend.voxeliser();
     timings["device"] = clock.lap();
-    VoxeliseReport report;
-    Amhv volume = voxelise(input, voxeliser, &report);
-    timings["voxelise"] = clock.lap();
-    AmhvSummary summary = summarise(volume);
-    if (summary.gap_voxels) spdlog::info("{} voxels are occupied in more than one interval of frames", summary.gap_voxels);
 
-    // 4. Write everything into a staging folder; it replaces --out only when complete.
     std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
     if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
     StagedOutput out(args.out, inputs);
-    write_amhv(volume, out.dir() / "mhv.amhv");
-    int slices = 0;
-    if (args.exr) slices = write_exr_slices(volume, out.dir() / "slices", {.axis = args.axis[0], .multipart = args.exr_multipart});
-    if (args.vdb) write_vdb(volume, out.dir() / "mhv.vdb");
-    timings["write"] = clock.lap();
-
-    nlohmann::ordered_json json;
-    json["program"] = std::string("amhv ") + AMHV_VERSION;
-    json["source"] = source;
-    json["frames"] = volume.frames();
-    json["source_frames"] = nlohmann::json::array();
-    for (const MeshFrame* f : frames) json["source_frames"].push_back(f->source);
-    json["voxel_size_m"] = grid.voxel;
-    json["grid"] = {{"origin_m", {grid.origin.x(), grid.origin.y(), grid.origin.z()}},
-                    {"dims", {grid.dims[0], grid.dims[1], grid.dims[2]}},
-                    {"layout", "voxel index = x + nx * (y + ny * z); capture frame, metres, z up"}};
-    json["occupied_voxels"] = summary.occupied_voxels;
-    json["gap_voxels"] = summary.gap_voxels;
-    json["root_m"] = {summary.root.x(), summary.root.y(), summary.root.z()};
-    json["bounding_box_m"] = {{"min", {summary.bounds.min.x(), summary.bounds.min.y(), summary.bounds.min.z()}},
-                              {"max", {summary.bounds.max.x(), summary.bounds.max.y(), summary.bounds.max.z()}}};
-    json["occupied_per_frame"] = summary.occupied_per_frame;
-    json["open_frames"] = report.open_frames;
-    json["backend"] = args.backend;
-    json["device"] = device;
-    json["files"] = {{"volume", "mhv.amhv"},
-                     {"exr_slices", args.exr ? nlohmann::json(args.exr_multipart ? fmt::format("slices/slices_{}.exr", args.axis)
-                                                                                   : fmt::format("slices/{}_NNNN.exr", args.axis))
-                                             : nlohmann::json(nullptr)},
-                     {"exr_slice_count", slices},
-                     {"vdb", args.vdb ? nlohmann::json("mhv.vdb") : nlohmann::json(nullptr)}};
-    if (args.timings) json["timings_s"] = timings;
-    write_file(out.dir() / "mhv.json", json.dump(2) + '\n');
+    const pipeline::MhvFiles files{args.exr, args.exr_multipart, args.vdb, args.timings, args.axis[0]};
+    const pipeline::MhvReport report = pipeline::write_mhv(plan, backend.voxeliser(), args.backend, backend.device(), files, out.dir(), timings);
     out.commit();
+    const VoxelGrid& grid = plan.grid;
+    const AmhvSummary& summary = report.summary;
     std::cout << fmt::format("amhv mhv: {} frames, {} x {} x {} voxels of {} m, {} occupied ({} with gaps), root ({:.3f}, {:.3f}, {:.3f}) m\n",
-                             volume.frames(), grid.dims[0], grid.dims[1], grid.dims[2], grid.voxel, summary.occupied_voxels,
+                             report.frames, grid.dims[0], grid.dims[1], grid.dims[2], grid.voxel, summary.occupied_voxels,
                              summary.gap_voxels, summary.root.x(), summary.root.y(), summary.root.z());
-    std::cout << fmt::format("  voxelised on {} in {:.2f} s; wrote {}/ (mhv.json, mhv.amhv{}{})\n", device, timings["voxelise"].get<double>(),
-                             out.target().string(), args.exr ? fmt::format(", {} EXR slices in slices/", slices) : "",
+    std::cout << fmt::format("  voxelised on {} in {:.2f} s; wrote {}/ (mhv.json, mhv.amhv{}{})\n", backend.device(), report.voxelise_seconds,
+                             out.target().string(), args.exr ? fmt::format(", {} EXR slices in slices/", report.slices) : "",
                              args.vdb ? ", mhv.vdb" : "");
 }
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "src/core/clock.hpp"
+#include "host/reference/sweep_reference.hpp"
 #include "src/core/error.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
@@ -61,6 +62,30 @@ void report_segment(const KeySegment& segment, const SweepProblem& problem, cons
     else
         std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}\n", segment.index,
                                  segment.type.name(), result.solutions, problem.range.size(), sweep_seconds, rejection_counts(result.rejected));
+}
+
+// With --from-sweep the groups come from files: the pose the DP chose in each key segment is swept
+// again with the CPU reference (one pose: the segment's volumes and one test per constraint), so
+// that an edit never rests on a row that is not a solution of this scene.
+void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
+                         const std::string& from_sweep) {
+    static const char* kConstraint[] = {"contact", "the interaction dictionary", "fidelity", "visibility"};
+    for (std::size_t s = 0; s < edit.keys.size(); ++s) {
+        const KeyEdit& key = edit.keys[s];
+        if (key.captured) continue;
+        SweepProblem problem = build_segment(scene, scene.segments[s], a, b, voxeliser).problem;
+        const Solution& pose = key.chosen;
+        const std::string where = fmt::format("{}/segment_{}/solutions.csv", from_sweep, key.index);
+        const PoseRange& r = problem.range;
+        if (pose.i < r.i_first || pose.i > r.i_last || pose.j < r.j_first || pose.j > r.j_last)
+            fail(where, "the chosen pose ({}, {}, {} deg) lies outside the poses key segment {} sweeps", pose.x, pose.y, pose.theta_deg, key.index);
+        problem.range.i_first = problem.range.i_last = pose.i;
+        problem.range.j_first = problem.range.j_last = pose.j;
+        const PoseOutcome outcome = ReferenceSweeper().sweep_angles(problem, pose.k, 1).at(pose.i, pose.j, pose.k);
+        if (outcome != PoseOutcome::Solution)
+            fail(where, "the chosen pose ({}, {}, {} deg) is not a solution of key segment {}: it fails {} (was the folder swept from this scene?)",
+                 pose.x, pose.y, pose.theta_deg, key.index, kConstraint[int(outcome)]);
+    }
 }
 
 }  // namespace
@@ -137,6 +162,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     EditOptions edit_options;
     edit_options.allow_empty = options.allow_empty;
     EditResult edit = edit_scene(scene, stage.sweeps, a, b, backends.voxeliser, edit_options);
+    if (!options.from_sweep.empty()) verify_chosen_poses(scene, edit, a, b, backends.voxeliser, options.from_sweep);
 
     auto t0 = std::chrono::steady_clock::now();
     write_transforms_json(out / "transforms.json", scene, edit);

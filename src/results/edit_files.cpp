@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
@@ -166,6 +167,12 @@ int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSou
     fs::create_directories(folder);
     for (int k = 0; k < edit.timeline.length(); ++k) {
         const EditedFrame frame = edited_frame(edit, k, a, b);
+        if (k == 0) {
+            // Disk for every frame, estimated from the first (binary PLY: 15 bytes a vertex, 13 a face).
+            const std::uint64_t bytes = (frame.both.vertices.size() * 15 + frame.both.triangles.size() * 13 + 1024) * std::uint64_t(edit.timeline.length());
+            budget::require_disk(folder, bytes + bytes / 2, fmt::format("frames/ ({} PLY files)", edit.timeline.length()),
+                                 "free some disk or pass --no-frames");
+        }
         std::vector<std::array<std::uint8_t, 3>> colours(frame.both.vertices.size(), kColour[1]);
         std::fill(colours.begin(), colours.begin() + std::ptrdiff_t(frame.vertices_from[1]), kColour[0]);
         std::vector<std::string> comments{fmt::format("amhv edit output frame {}: A = source frame {}, B = source frame {}", k,
