@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv {
@@ -140,6 +141,10 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
                     int qi0 = INT32_MAX, qi1 = INT32_MIN, qj0 = INT32_MAX, qj1 = INT32_MIN;
                     for (const auto& s : seg.solutions) qi0 = std::min(qi0, s.i), qi1 = std::max(qi1, s.i), qj0 = std::min(qj0, s.j), qj1 = std::max(qj1, s.j);
                     const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
+                    // The distance transform's grids span both groups' boxes: checked before allocating.
+                    budget::require_memory((std::uint64_t(pw) * ph + std::uint64_t(ph) * qw + std::uint64_t(qw) * qh) * 12,
+                                           fmt::format("the DP's grid between key segments {} and {} ({} x {} and {} x {} cells)", i, i + 1, pw, ph, qw, qh),
+                                           "the solution groups spread over too wide an area: narrow x_range / y_range");
                     // Best state of each cell of R_{i-1} (the first in (theta, y, x) order on ties).
                     std::vector<double> cell(std::size_t(pw) * ph, kInf);
                     std::vector<int> cell_state(std::size_t(pw) * ph, -1);

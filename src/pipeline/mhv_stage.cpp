@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "src/core/budget.hpp"
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
 #include "src/core/normalise.hpp"
@@ -91,6 +92,9 @@ MhvReport write_mhv(const MhvPlan& plan, Voxeliser& voxeliser, const std::string
     if (report.summary.gap_voxels) spdlog::info("{} voxels are occupied in more than one interval of frames", report.summary.gap_voxels);
 
     t0 = std::chrono::steady_clock::now();
+    // The volume file's size is known exactly: a voxel index and its words per occupied voxel.
+    budget::require_disk(out, 64 + report.summary.occupied_voxels * (4 + 4 * std::uint64_t(volume.words())), "mhv.amhv",
+                         "free some disk or use a larger --voxel");
     write_amhv(volume, out / "mhv.amhv");
     if (files.exr) report.slices = write_exr_slices(volume, out / "slices", {.axis = files.axis, .multipart = files.exr_multipart});
     if (files.vdb) write_vdb(volume, out / "mhv.vdb");
