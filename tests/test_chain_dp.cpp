@@ -130,5 +130,31 @@ TEST(ChainDp, LargeGroupsAreHandled) {
     EXPECT_NEAR(dp.pairwise, 0.0, 1e-12);
 }
 
+// The editor's intent enters the unary cost (docs/method.md section 7, "Intent"): the DP with an
+// extra unary per solution still equals exhaustive enumeration.
+TEST(ChainDp, IntentCostsMatchExhaustiveEnumeration) {
+    std::mt19937 random(20261125);
+    std::uniform_real_distribution<double> u(0, 5);
+    for (int round = 0; round < 200; ++round) {
+        auto chain = random_chain(random, 1 + round % 4, 7);
+        for (auto& s : chain)
+            if (random() % 2)
+                for (std::size_t k = 0; k < s.solutions.size(); ++k) s.extra_unary.push_back(u(random));
+        ChainWeights w;
+        w.voxel = 0.05;
+        ChainChoice dp = solve_chain(chain, w), all = solve_chain_exhaustively(chain, w);
+        EXPECT_NEAR(dp.cost, all.cost, 1e-9 * (1 + all.cost)) << "round " << round;
+        EXPECT_EQ(dp.solution, all.solution) << "round " << round;
+    }
+}
+
+// With one key segment the intent decides among solutions the paper's terms leave nearly flat.
+TEST(ChainDp, IntentPicksThePreferredSolution) {
+    std::vector<ChainSegment> chain(1);
+    for (int i = 0; i < 10; ++i) chain[0].solutions.push_back({i, 0, 0.0});
+    for (int i = 0; i < 10; ++i) chain[0].extra_unary.push_back(std::pow(i - 6, 2));
+    EXPECT_EQ(solve_chain(chain, ChainWeights{}).solution[0], 6);
+}
+
 }  // namespace
 }  // namespace amhv

@@ -2,7 +2,9 @@
 // labels, a sweep folder for --from-sweep, command-line numbers): each generated here, each must
 // end in its own exact refusal: a non-zero exit, one "amhv: error:" line naming the file (and line)
 // and what is wrong, no crash, no hang, no output folder. docs/scenes.md, "What amhv refuses".
+#include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <regex>
 
 #include <fmt/format.h>
@@ -233,6 +235,12 @@ std::vector<Hostile> scene_cases() {
         {"SceneUnknownInteraction", with("type = \"0&0a\"", "type = \"hug\""), check, "scene.toml:14: segments[1].type: unknown interaction type 'hug'"},
         {"SceneNegativeTolerance", with("type = \"0&0a\"", "type = \"0&0a\"\ntolerance = -3"), check, "tolerance"},
         {"SceneSyntax", with("[[segments]]", "[[segments]"), check, "scene.toml:11: Error while parsing table header"},
+        {"ScenePreferNegativeWeight", with("type = \"0&0a\"", "type = \"0&0a\"\nprefer = { distance_m = 0.7, weight = -1 }"), check, "prefer.weight"},
+        {"ScenePreferUnknownKey", with("type = \"0&0a\"", "type = \"0&0a\"\nprefer = { distance = 0.7 }"), check, "prefer.distance"},
+        {"SceneLimitsReversed", with("type = \"0&0a\"", "type = \"0&0a\"\nlimits = { distance_m = [1.2, 0.4] }"), check,
+         "limits.distance_m: must be [low, high] within [0, 100]"},
+        {"SceneLimitsAngleRange", with("type = \"0&0a\"", "type = \"0&0a\"\nlimits = { thetaA_deg = [-400, 45] }"), check,
+         "limits.thetaA_deg: must be [low, high] within [-180, 180]"},
         {"SceneBvhMissing", {{"scene.toml", kScene}}, check, "18_01.bvh"},
         {"SceneMemory", with("voxel = 0.04", "voxel = 0.002"), sweep + " --max-memory 0.5", "more than the 0.5 GB --max-memory allows; use a voxel of at least"},
         {"TrackFrameHuge", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1e20,0,0,1.6,1,0,0\n"}},
@@ -300,21 +308,25 @@ INSTANTIATE_TEST_SUITE_P(Corpus, HostileInput, ::testing::ValuesIn(corpus()), []
 
 TEST(HostileCorpus, HasAtLeastSixtyCases) { EXPECT_GE(corpus().size(), 60u); }
 
-}  // namespace
-}  // namespace amhv
+// A folder with the captures and the scene files `scenes` (name -> text), each swept into a folder
+// of its name.
+void sweep_scenes(const fs::path& d, const std::vector<std::pair<std::string, std::string>>& scenes) {
+    fs::copy(test::source_dir() / "data" / "cmu", d / "cmu");
+    for (const auto& [name, text] : scenes) {
+        std::ofstream(d / (name + ".toml")) << text;
+        auto sweep = test::run_amhv(fmt::format("sweep '{0}/{1}.toml' --no-maps --backend cpu --out '{0}/{1}'", d.string(), name));
+        ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
+    }
+}
 
-namespace amhv {
-namespace {
 
 // A group row that is consistent (on the lattice, in range, its own descriptors) but not a solution:
 // the edit sweeps the pose it chose again and refuses it.
 TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
     test::TempDir tmp;
     const fs::path d = tmp.path();
-    fs::copy(test::source_dir() / "data" / "cmu", d / "cmu");
-    std::ofstream(d / "scene.toml") << kScene;
-    auto sweep = test::run_amhv(fmt::format("sweep '{0}/scene.toml' --no-maps --backend cpu --out '{0}/sweep'", d.string()));
-    ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
+    sweep_scenes(d, {{"scene", kScene}});
+    fs::rename(d / "scene", d / "sweep");
     auto json = nlohmann::json::parse(test::read_text(d / "sweep" / "result.json"));
     auto& segment = json["segments"][0];
     SweepProblem problem;
@@ -335,6 +347,33 @@ TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
     EXPECT_EQ(test::one_line_error(edit), 1) << edit.output;
     EXPECT_NE(edit.output.find("is not a solution of key segment 1: it fails contact"), std::string::npos) << edit.output;
     EXPECT_FALSE(fs::exists(d / "out"));
+}
+
+
+// limits: solutions outside are counted in rejected.limits and left out of the group; the rows
+// kept all lie within the limits.
+TEST(Intent, LimitsRejectAndCount) {
+    test::TempDir tmp;
+    const fs::path d = tmp.path();
+    sweep_scenes(d, {{"plain", kScene}, {"limited", scene_with("type = \"0&0a\"", "type = \"0&0a\"\nlimits = { distance_m = [0.0, 0.6] }")}});
+    const auto plain = nlohmann::json::parse(test::read_text(d / "plain" / "result.json"))["segments"][0];
+    const auto limited = nlohmann::json::parse(test::read_text(d / "limited" / "result.json"))["segments"][0];
+    const std::uint64_t all = plain["solutions"], kept = limited["solutions"], rejected = limited["rejected"]["limits"];
+    EXPECT_EQ(kept + rejected, all);
+    EXPECT_GT(rejected, 0u);
+    EXPECT_GT(kept, 0u);
+    EXPECT_EQ(plain["rejected"]["limits"], 0);
+    std::istringstream rows(test::read_text(d / "limited" / "segment_1" / "solutions.csv"));
+    std::string line;
+    std::getline(rows, line);
+    std::uint64_t count = 0;
+    while (std::getline(rows, line)) {
+        ++count;
+        double x, y, theta, distance;
+        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &x, &y, &theta, &distance), 4);
+        EXPECT_LE(distance, 0.6);
+    }
+    EXPECT_EQ(count, kept);
 }
 
 }  // namespace

@@ -25,7 +25,8 @@ double unary(const ChainSegment& s, const ChainWeights& w, int j, int d) {
     const Eigen::Vector2d r(sol.i * w.voxel, sol.j * w.voxel);
     const double facing = (2 - 2 * std::cos(delta)) + (2 - 2 * std::cos(w.yaw_a + delta + sol.theta_rad - w.yaw_b));
     const double prior = (r - s.prior_offset).squaredNorm() + std::pow(angles::wrap_radians(sol.theta_rad - s.prior_theta_rad), 2);
-    return w.lambda * facing + w.mu * prior;
+    const double cost = w.lambda * facing + w.mu * prior;
+    return s.extra_unary.empty() ? cost : cost + s.extra_unary[std::size_t(j)];
 }
 
 double pair_factor(const ChainWeights& w) { return std::isinf(w.w_a) ? w.w_b : w.w_a * w.w_b / (w.w_a + w.w_b); }

@@ -28,6 +28,8 @@ struct ChainSegment {
     Eigen::Vector2d root_a = Eigen::Vector2d::Zero(), root_b = Eigen::Vector2d::Zero();  // capture frames, metres
     Eigen::Vector2d prior_offset = Eigen::Vector2d::Zero();  // r0: where the initial placement puts B (A's capture axes)
     double prior_theta_rad = 0;
+    // Per solution, a cost the edit adds to the unary (the editor's intent); empty: none.
+    std::vector<double> extra_unary;
 };
 
 struct ChainWeights {

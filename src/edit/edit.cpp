@@ -156,6 +156,8 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
         for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
+        if (key.intent.prefers())
+            for (const Solution& sol : s.solutions) c.extra_unary.push_back(intent_cost(key.intent, sol));
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "

@@ -55,13 +55,15 @@ KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const
     return k;
 }
 
-void report_segment(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, double sweep_seconds) {
-    if (result.solutions == 0)
-        std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}\n", segment.index, segment.type.name(),
-                                 problem.range.size(), rejection_counts(result.rejected));
+void report_segment(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, std::uint64_t limited,
+                    std::size_t solutions, double sweep_seconds) {
+    const std::string limits = segment.intent.limits() ? fmt::format(", limits {}", limited) : "";
+    if (solutions == 0)
+        std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}{}\n", segment.index, segment.type.name(),
+                                 problem.range.size(), rejection_counts(result.rejected), limits);
     else
-        std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}\n", segment.index,
-                                 segment.type.name(), result.solutions, problem.range.size(), sweep_seconds, rejection_counts(result.rejected));
+        std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}{}\n", segment.index,
+                                 segment.type.name(), solutions, problem.range.size(), sweep_seconds, rejection_counts(result.rejected), limits);
 }
 
 // With --from-sweep the groups come from files: the pose the DP chose in each key segment is swept
@@ -114,6 +116,11 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         const auto dir = out / fmt::format("segment_{}", segment.index);
         fs::create_directories(dir);
         auto list = solutions(problem, result);
+        // The editor's limits on the descriptors, on the host for both backends (exact: the
+        // descriptors are the solutions' own).
+        const std::size_t before_limits = list.size();
+        std::erase_if(list, [&](const Solution& s) { return !within_limits(segment.intent, s); });
+        const std::uint64_t limited = before_limits - list.size();
         write_solutions_csv(dir / "solutions.csv", list);
         const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0};
         timings["output"] = seconds_since(t0);
@@ -121,10 +128,10 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         stage.sweep_seconds += timings["sweep"].get<double>();
         stage.output_seconds += timings["output"].get<double>();
 
-        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, list, files,
+        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, list, limited, files,
                                                              options.timings ? timings : results::Json(nullptr)));
         stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(list)));
-        report_segment(segment, problem, result, timings["sweep"].get<double>());
+        report_segment(segment, problem, result, limited, stage.sweeps.back().solutions.size(), timings["sweep"].get<double>());
     }
     return stage;
 }

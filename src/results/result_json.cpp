@@ -67,8 +67,9 @@ const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySe
         s->at("interest").at("A").get<std::string>() != key.interest_a.describe() ||
         s->at("interest").at("B").get<std::string>() != key.interest_b.describe() ||
         s->at("fidelity").at("A").get<std::string>() != key.fidelity_a.describe() ||
-        s->at("fidelity").at("B").get<std::string>() != key.fidelity_b.describe())
-        fail(where, "key segment {} was swept with other frames, type, tolerance, visibility or parts than the scene says", key.index);
+        s->at("fidelity").at("B").get<std::string>() != key.fidelity_b.describe() ||
+        (s->contains("limits") ? s->at("limits").get<std::string>() : std::string()) != describe_limits(key.intent))
+        fail(where, "key segment {} was swept with other frames, type, tolerance, visibility, parts or limits than the scene says", key.index);
     return *s;
 }
 
@@ -154,7 +155,7 @@ Json result_header(const Scene& scene, const std::string& backend, const std::st
 }
 
 Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
-                        const std::vector<Solution>& solutions, const SegmentFiles& files, const Json& timings) {
+                        const std::vector<Solution>& solutions, std::uint64_t limited, const SegmentFiles& files, const Json& timings) {
     Json s;
     s["index"] = segment.index;
     s["type"] = segment.type.name();
@@ -162,9 +163,9 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
     s["frames_b"] = {segment.b[0], segment.b[1]};
     s["normalised_frames"] = problem.frames();
     s["poses_tested"] = problem.range.size();
-    s["solutions"] = result.solutions;
+    s["solutions"] = solutions.size();
     s["rejected"] = {{"contact", result.rejected[0]}, {"dictionary", result.rejected[1]}, {"fidelity", result.rejected[2]},
-                     {"visibility", result.rejected[3]}};
+                     {"visibility", result.rejected[3]}, {"limits", limited}};
     s["range"] = {{"x_m", {problem.range.i_first * problem.voxel, problem.range.i_last * problem.voxel}},
                   {"y_m", {problem.range.j_first * problem.voxel, problem.range.j_last * problem.voxel}},
                   {"angles", problem.range.angles}};
@@ -175,6 +176,7 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
                        {"range_m", segment.visibility.range}};
     s["interest"] = {{"A", segment.interest_a.describe()}, {"B", segment.interest_b.describe()}};
     s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
+    if (segment.intent.limits()) s["limits"] = describe_limits(segment.intent);
     s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
                   {"feasibility", files.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
                   {"feasibility_files", files.feasibility_files}};

@@ -28,9 +28,10 @@ struct SegmentFiles {
     int feasibility_files = 0;
 };
 
-// One key segment's entry after its sweep; `timings` (mhv, sweep, output, stages) when not null.
+// One key segment's entry after its sweep (`solutions` within the intent's limits, `limited` the
+// solutions of the sweep outside them); `timings` (mhv, sweep, output, stages) when not null.
 Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
-                        const std::vector<Solution>& solutions, const SegmentFiles& files, const Json& timings);
+                        const std::vector<Solution>& solutions, std::uint64_t limited, const SegmentFiles& files, const Json& timings);
 
 // What the edit wrote beside result.json.
 struct EditFiles {

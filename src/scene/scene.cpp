@@ -274,6 +274,32 @@ std::string PartSpec::describe() const {
 
 int Sampling::angles() const { return int(std::lround(360.0 / angle_step_deg)); }
 
+namespace {
+
+// prefer = { distance_m, thetaA_deg, thetaB_deg, weight } and limits = { distance_m = [lo, hi],
+// thetaA_deg = [lo, hi], thetaB_deg = [lo, hi] }, every key optional.
+void read_intent(TableReader& segment, Intent& intent) {
+    TableReader prefer = segment.table("prefer");
+    intent.distance_m = prefer.number("distance_m", 0, 100);
+    intent.theta_a_deg = prefer.number("thetaA_deg", -180, 180);
+    intent.theta_b_deg = prefer.number("thetaB_deg", -180, 180);
+    intent.weight = prefer.number("weight", 0, 1e6).value_or(1.0);
+    prefer.finish();
+    TableReader limits = segment.table("limits");
+    auto bounds = [&](const char* key, double lo, double hi) {
+        auto r = limits.numbers<2>(key);
+        if (r && ((*r)[0] > (*r)[1] || (*r)[0] < lo || (*r)[1] > hi))
+            limits.error(key, limits.get(key), "must be [low, high] within [{}, {}]", lo, hi);
+        return r;
+    };
+    intent.distance_limits_m = bounds("distance_m", 0, 100);
+    intent.theta_a_limits_deg = bounds("thetaA_deg", -180, 180);
+    intent.theta_b_limits_deg = bounds("thetaB_deg", -180, 180);
+    limits.finish();
+}
+
+}  // namespace
+
 Scene load_scene(const fs::path& file) {
     if (!fs::is_regular_file(file)) fail(file.string(), "no such scene file");
     toml::table root;
@@ -368,6 +394,7 @@ Scene load_scene(const fs::path& file) {
         k.visibility.half_angle_deg = vis.number("half_angle_deg", 0, 90, false).value_or(30);
         k.visibility.range = vis.number("range", 0, 1000).value_or(0);
         vis.finish();
+        read_intent(t, k.intent);
         read_parts(t, "interest", scene, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
         read_parts(t, "fidelity", scene, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
         int tau = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1).length;
@@ -445,6 +472,25 @@ std::string resolved_toml(const Scene& scene) {
             {"interest", toml::table{{"A", part_node(k.interest_a)}, {"B", part_node(k.interest_b)}}},
             {"fidelity", toml::table{{"A", part_node(k.fidelity_a)}, {"B", part_node(k.fidelity_b)}}},
         });
+        toml::table& entry = *segments.back().as_table();
+        const Intent& in = k.intent;
+        if (in.prefers()) {
+            toml::table prefer{{"weight", in.weight}};
+            if (in.distance_m) prefer.insert("distance_m", *in.distance_m);
+            if (in.theta_a_deg) prefer.insert("thetaA_deg", *in.theta_a_deg);
+            if (in.theta_b_deg) prefer.insert("thetaB_deg", *in.theta_b_deg);
+            entry.insert("prefer", prefer);
+        }
+        if (in.limits()) {
+            toml::table limits;
+            auto put = [&](const char* key, const std::optional<std::array<double, 2>>& r) {
+                if (r) limits.insert(key, toml::array{(*r)[0], (*r)[1]});
+            };
+            put("distance_m", in.distance_limits_m);
+            put("thetaA_deg", in.theta_a_limits_deg);
+            put("thetaB_deg", in.theta_b_limits_deg);
+            entry.insert("limits", limits);
+        }
     }
     root.insert("segments", segments);
     std::ostringstream out;

@@ -48,6 +48,16 @@ struct VisibilitySpec {
     double range = 0;  // metres; 0 = unlimited
 };
 
+// The editor's intent for a key segment (docs/method.md section 7, "Intent"): the descriptors it
+// prefers (a term of the DP's unary cost) and hard bounds on them (poses outside are rejected).
+struct Intent {
+    std::optional<double> distance_m, theta_a_deg, theta_b_deg;  // prefer: any subset
+    double weight = 1;
+    std::optional<std::array<double, 2>> distance_limits_m, theta_a_limits_deg, theta_b_limits_deg;  // limits: any subset
+    bool prefers() const { return distance_m || theta_a_deg || theta_b_deg; }
+    bool limits() const { return distance_limits_m || theta_a_limits_deg || theta_b_limits_deg; }
+};
+
 struct KeySegment {
     int index = 0;  // 1-based, in file order
     std::array<int, 2> a{}, b{};  // inclusive frame numbers in A and in B
@@ -55,6 +65,7 @@ struct KeySegment {
     int tolerance = 0;
     VisibilitySpec visibility;
     PartSpec interest_a, interest_b, fidelity_a, fidelity_b;
+    Intent intent;
     int line = 0;  // in the scene file
 };
 

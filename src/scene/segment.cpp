@@ -344,4 +344,30 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     return build;
 }
 
+double intent_cost(const Intent& intent, const Solution& s) {
+    if (!intent.prefers()) return 0;
+    double sum = 0;
+    if (intent.distance_m) sum += std::pow((s.distance - *intent.distance_m) / 0.05, 2);
+    if (intent.theta_a_deg) sum += std::pow(angles::wrap_degrees(s.theta_a_deg - *intent.theta_a_deg) / 5.0, 2);
+    if (intent.theta_b_deg) sum += std::pow(angles::wrap_degrees(s.theta_b_deg - *intent.theta_b_deg) / 5.0, 2);
+    return intent.weight * sum;
+}
+
+bool within_limits(const Intent& intent, const Solution& s) {
+    auto inside = [](const std::optional<std::array<double, 2>>& r, double v) { return !r || ((*r)[0] <= v && v <= (*r)[1]); };
+    return inside(intent.distance_limits_m, s.distance) && inside(intent.theta_a_limits_deg, s.theta_a_deg) &&
+           inside(intent.theta_b_limits_deg, s.theta_b_deg);
+}
+
+std::string describe_limits(const Intent& intent) {
+    std::string out;
+    auto put = [&](const char* key, const std::optional<std::array<double, 2>>& r) {
+        if (r) out += fmt::format("{}{} [{}, {}]", out.empty() ? "" : ", ", key, (*r)[0], (*r)[1]);
+    };
+    put("distance_m", intent.distance_limits_m);
+    put("thetaA_deg", intent.theta_a_limits_deg);
+    put("thetaB_deg", intent.theta_b_limits_deg);
+    return out;
+}
+
 }  // namespace amhv
