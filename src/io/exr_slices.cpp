@@ -15,6 +15,7 @@
 #include <limits>
 #include <vector>
 
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv {
@@ -115,6 +116,9 @@ int write_exr_slices(const Amhv& volume, const std::filesystem::path& folder, co
     std::filesystem::create_directories(folder);
     SliceAxes axes = axes_for(options.axis);
     const int slices = volume.grid().dims[std::size_t(axes.normal)];
+    // Disk before any slice: the uncompressed floats over ZIP's usual 4x on these mostly empty images.
+    const std::uint64_t raw = std::uint64_t(volume.voxel_count()) * std::size(kChannels) * sizeof(float);
+    budget::require_disk(folder, raw / 4, fmt::format("{} EXR slices", slices), "free some disk, use a larger --voxel or pass --no-exr");
     try {
         if (options.multipart) {
             std::vector<Imf::Header> headers;

@@ -254,6 +254,7 @@ void precheck_mesh_file(const fs::path& path) {
         std::string line, format;
         std::uint64_t vertices = 0, faces = 0, header_bytes = 0, lines = 0;
         bool ended = false;
+        std::vector<std::string> elements;
         while (header_bytes < 65536 && std::getline(in, line)) {
             header_bytes += line.size() + 1;
             if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -264,6 +265,7 @@ void precheck_mesh_file(const fs::path& path) {
             if (word == "element") {
                 std::uint64_t count = 0;
                 words >> kind >> count;
+                elements.push_back(kind);
                 if (kind == "vertex") vertices = count;
                 if (kind == "face") faces = count;
             }
@@ -274,7 +276,29 @@ void precheck_mesh_file(const fs::path& path) {
         }
         if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
         if (format == "ascii") {
-            while (std::getline(in, line)) ++lines;
+            // Vertex rows (the header's first element) must hold finite numbers, face rows indices
+            // of those vertices.
+            const bool standard = elements.size() >= 2 && elements[0] == "vertex" && elements[1] == "face";
+            while (std::getline(in, line)) {
+                ++lines;
+                if (!standard) continue;
+                std::istringstream words(line);
+                std::string word;
+                if (lines <= vertices) {
+                    while (words >> word) {
+                        char* end = nullptr;
+                        const double value = std::strtod(word.c_str(), &end);
+                        if (end == word.c_str() || !std::isfinite(value))
+                            fail(source, "vertex {} has a non-finite or unreadable value '{}'", lines - 1, printable(word));
+                    }
+                } else if (lines <= vertices + faces) {
+                    long long n = 0, index = 0;
+                    words >> n;
+                    for (long long k = 0; k < n; ++k)
+                        if (!(words >> index) || index < 0 || std::uint64_t(index) >= vertices)
+                            fail(source, "face {} names vertex {}, not one of the {} vertices", lines - vertices - 1, index, vertices);
+                }
+            }
             if (lines < vertices + faces) fail(source, "malformed PLY: {} vertices and {} faces declared but only {} lines follow", vertices, faces, lines);
         } else if (header_bytes + vertices * 12 + faces * 13 > size) {
             fail(source, "malformed PLY: {} vertices and {} faces need at least {} bytes but the file has {}", vertices, faces,
@@ -319,8 +343,11 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
         // have them); anything else it complains of is a broken file.
         const std::string first_line = diagnostics.str().substr(0, diagnostics.str().find('\n'));
         if (first_line.find("complex") == std::string::npos)
-            fail(path.string(), "malformed mesh: {}", printable(first_line));
-        spdlog::warn("{}: OpenMesh dropped part of the mesh: {}", path.string(), printable(first_line));
+            fail(path.string(), "malformed mesh: {}",
+                 first_line.find("invalid vertex index") != std::string::npos ? "a face names a vertex the file does not have"
+                                                                               : "the reader could not take all of it");
+        spdlog::warn("{}: a face shares an edge or a vertex with others in a way a closed surface cannot (non-manifold); "
+                     "it is dropped", path.string());
     }
     if (mesh.n_faces() == 0) fail(path.string(), "empty frame: the mesh has no faces");
 
