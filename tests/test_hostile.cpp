@@ -202,10 +202,10 @@ std::vector<Hostile> mesh_cases() {
         {"PlyNoEndHeader", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 4\n"}}, mhv("m/f_%04d.ply"), "malformed PLY: no end_header"},
         {"PlyIndexPastEnd", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                                               "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"}},
-         mhv("m/f_%04d.ply"), "f_0000.ply: face 0 names vertex 7, not one of the 3 vertices"},
+         mhv("m/f_%04d.ply"), "f_0000.ply:13: face 0 names vertex 7, not one of the 3 vertices"},
         {"PlyAsciiNaN", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                                           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"}},
-         mhv("m/f_%04d.ply"), "f_0000.ply"},
+         mhv("m/f_%04d.ply"), "f_0000.ply:11: vertex 1 has a non-finite or unreadable value 'nan'"},
         {"StlAsciiGarbage", {{"m/f_0000.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex nan 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid x\n"}},
          mhv("m/f_%04d.stl"), "f_0000.stl: empty frame: the mesh has no faces"},
         {"OffHeaderHuge", {{"m/f_0000.off", "OFF\n1000000 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"}}, mhv("m/f_%04d.off"),

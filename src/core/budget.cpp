@@ -29,6 +29,21 @@ std::uint64_t available_memory() {
 
 std::string gigabytes(std::uint64_t bytes) { return fmt::format("{:.1f} GB", double(bytes) / 1e9); }
 
+// The limit reservations are held to: --max-memory, or what was available when the first one was made.
+std::uint64_t reservation_limit() {
+    if (const std::uint64_t set = g_limit.load()) return set;
+    static const std::uint64_t at_start = available_memory();
+    return at_start;
+}
+
+// "WHAT needs ~N GB of memory[ beside the H GB the run already holds], more than the M GB ...; HINT".
+[[noreturn]] void too_much_memory(const std::string& what, std::uint64_t bytes, std::uint64_t held, std::uint64_t limit, const char* source,
+                                  const std::string& hint) {
+    const std::string others = held > 0 ? fmt::format(" beside the {} the run already holds", gigabytes(held)) : "";
+    throw Error(fmt::format("{} needs ~{} of memory{}, more than the {} {}; {}", what, gigabytes(bytes), others, gigabytes(limit),
+                            g_limit.load() ? "--max-memory allows" : source, hint));
+}
+
 }  // namespace
 
 std::uint64_t memory_limit() {
@@ -40,9 +55,7 @@ void set_memory_limit(std::uint64_t bytes) { g_limit.store(bytes); }
 
 void require_memory(std::uint64_t bytes, const std::string& what, const std::string& hint) {
     const std::uint64_t limit = memory_limit();
-    if (bytes <= limit) return;
-    throw Error(fmt::format("{} needs ~{} of memory, more than the {} {}; {}", what, gigabytes(bytes), gigabytes(limit),
-                            g_limit.load() ? "--max-memory allows" : "this machine has available", hint));
+    if (bytes > limit) too_much_memory(what, bytes, 0, limit, "this machine has available", hint);
 }
 
 void require_disk(const std::filesystem::path& where, std::uint64_t bytes, const std::string& what, const std::string& hint) {
@@ -53,24 +66,11 @@ void require_disk(const std::filesystem::path& where, std::uint64_t bytes, const
                             where.string(), hint));
 }
 
-namespace {
-
-// The limit reservations are held to: --max-memory, or what was available when the first one was made.
-std::uint64_t reservation_limit() {
-    if (const std::uint64_t set = g_limit.load()) return set;
-    static const std::uint64_t at_start = available_memory();
-    return at_start;
-}
-
-}  // namespace
-
 Reservation::Reservation(std::uint64_t bytes, const std::string& what, const std::string& hint) {
     const std::uint64_t limit = reservation_limit(), held = g_held.fetch_add(bytes) + bytes;
     if (held > limit) {
         g_held.fetch_sub(bytes);
-        const std::string others = held > bytes ? fmt::format(" beside the {} the run already holds", gigabytes(held - bytes)) : "";
-        throw Error(fmt::format("{} needs ~{} of memory{}, more than the {} {}; {}", what, gigabytes(bytes), others, gigabytes(limit),
-                                g_limit.load() ? "--max-memory allows" : "this machine had available", hint));
+        too_much_memory(what, bytes, held - bytes, limit, "this machine had available", hint);
     }
     bytes_ = bytes;
 }

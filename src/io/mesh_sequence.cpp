@@ -163,6 +163,23 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
 
 namespace {
 
+// A word of a text mesh that reads as a finite number.
+bool is_finite_number(const std::string& word) {
+    char* end = nullptr;
+    const double value = std::strtod(word.c_str(), &end);
+    return end != word.c_str() && std::isfinite(value);
+}
+
+// A face row of a text OFF or PLY file: a count, then that many indices of the file's vertices.
+void check_face_row(const std::string& line, std::uint64_t vertices, std::uint64_t face, const std::string& where) {
+    std::istringstream words(line);
+    long long n = 0, index = 0;
+    words >> n;
+    for (long long k = 0; k < n; ++k)
+        if (!(words >> index) || index < 0 || std::uint64_t(index) >= vertices)
+            fail(where, "face {} names vertex {}, not one of the {} vertices", face, index, vertices);
+}
+
 // OBJ: every vertex coordinate finite, every face index naming a vertex of the file (1-based, or
 // negative counting back from the last vertex so far).
 void precheck_obj(std::istream& in, const std::string& source) {
@@ -175,12 +192,9 @@ void precheck_obj(std::istream& in, const std::string& source) {
         std::istringstream words(line.substr(2));
         std::string word;
         if (line[0] == 'v') {
-            for (int i = 0; i < 3 && words >> word; ++i) {
-                char* end = nullptr;
-                double value = std::strtod(word.c_str(), &end);
-                if (end == word.c_str() || !std::isfinite(value))
+            for (int i = 0; i < 3 && words >> word; ++i)
+                if (!is_finite_number(word))
                     fail(source + ":" + std::to_string(number), "vertex {} has a non-finite coordinate '{}'", vertex, printable(word));
-            }
             ++vertex;
         } else if (line[0] == 'f') {
             while (words >> word) {
@@ -232,13 +246,59 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
     }
     for (long long f = 0; f < faces; ++f) {
         if (!next_line()) fail(source, "malformed OFF: {} faces declared, the file ends after {}", faces, f);
-        std::istringstream words(line);
-        long long n = 0, index = 0;
-        words >> n;
-        for (long long k = 0; k < n; ++k)
-            if (!(words >> index) || index < 0 || index >= vertices)
-                fail(fmt::format("{}:{}", source, number), "face {} names vertex {}, not one of the {} vertices", f, index, vertices);
+        check_face_row(line, std::uint64_t(vertices), std::uint64_t(f), fmt::format("{}:{}", source, number));
     }
+}
+
+// PLY: the header's counts must be matched by the file; in ASCII files with the usual vertex and
+// face elements, vertex rows must hold finite numbers and face rows indices of those vertices.
+void precheck_ply(std::istream& in, const std::string& source, std::uint64_t size) {
+    std::string line, format;
+    std::uint64_t vertices = 0, faces = 0, header_bytes = 0, header_lines = 0, lines = 0;
+    bool ended = false;
+    std::vector<std::string> elements;
+    while (header_bytes < 65536 && std::getline(in, line)) {
+        header_bytes += line.size() + 1;
+        ++header_lines;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream words(line);
+        std::string word, kind;
+        words >> word;
+        if (word == "format") words >> format;
+        if (word == "element") {
+            std::uint64_t count = 0;
+            words >> kind >> count;
+            elements.push_back(kind);
+            if (kind == "vertex") vertices = count;
+            if (kind == "face") faces = count;
+        }
+        if (word == "end_header") {
+            ended = true;
+            break;
+        }
+    }
+    if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
+    if (format != "ascii") {
+        if (header_bytes + vertices * 12 + faces * 13 > size)
+            fail(source, "malformed PLY: {} vertices and {} faces need at least {} bytes but the file has {}", vertices, faces,
+                 header_bytes + vertices * 12 + faces * 13, size);
+        return;
+    }
+    const bool standard = elements.size() >= 2 && elements[0] == "vertex" && elements[1] == "face";
+    while (std::getline(in, line)) {
+        ++lines;
+        if (!standard) continue;
+        const std::string where = fmt::format("{}:{}", source, header_lines + lines);
+        if (lines <= vertices) {
+            std::istringstream words(line);
+            std::string word;
+            while (words >> word)
+                if (!is_finite_number(word)) fail(where, "vertex {} has a non-finite or unreadable value '{}'", lines - 1, printable(word));
+        } else if (lines <= vertices + faces) {
+            check_face_row(line, vertices, lines - vertices - 1, where);
+        }
+    }
+    if (lines < vertices + faces) fail(source, "malformed PLY: {} vertices and {} faces declared but only {} lines follow", vertices, faces, lines);
 }
 
 // Structural checks OpenMesh does not make before it allocates: a header that promises more data
@@ -251,59 +311,7 @@ void precheck_mesh_file(const fs::path& path) {
     if (!in) fail(source, "cannot open file (permission denied?)");
     const std::string ext = lower_extension(path);
     if (ext == ".ply") {
-        std::string line, format;
-        std::uint64_t vertices = 0, faces = 0, header_bytes = 0, lines = 0;
-        bool ended = false;
-        std::vector<std::string> elements;
-        while (header_bytes < 65536 && std::getline(in, line)) {
-            header_bytes += line.size() + 1;
-            if (!line.empty() && line.back() == '\r') line.pop_back();
-            std::istringstream words(line);
-            std::string word, kind;
-            words >> word;
-            if (word == "format") words >> format;
-            if (word == "element") {
-                std::uint64_t count = 0;
-                words >> kind >> count;
-                elements.push_back(kind);
-                if (kind == "vertex") vertices = count;
-                if (kind == "face") faces = count;
-            }
-            if (word == "end_header") {
-                ended = true;
-                break;
-            }
-        }
-        if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
-        if (format == "ascii") {
-            // Vertex rows (the header's first element) must hold finite numbers, face rows indices
-            // of those vertices.
-            const bool standard = elements.size() >= 2 && elements[0] == "vertex" && elements[1] == "face";
-            while (std::getline(in, line)) {
-                ++lines;
-                if (!standard) continue;
-                std::istringstream words(line);
-                std::string word;
-                if (lines <= vertices) {
-                    while (words >> word) {
-                        char* end = nullptr;
-                        const double value = std::strtod(word.c_str(), &end);
-                        if (end == word.c_str() || !std::isfinite(value))
-                            fail(source, "vertex {} has a non-finite or unreadable value '{}'", lines - 1, printable(word));
-                    }
-                } else if (lines <= vertices + faces) {
-                    long long n = 0, index = 0;
-                    words >> n;
-                    for (long long k = 0; k < n; ++k)
-                        if (!(words >> index) || index < 0 || std::uint64_t(index) >= vertices)
-                            fail(source, "face {} names vertex {}, not one of the {} vertices", lines - vertices - 1, index, vertices);
-                }
-            }
-            if (lines < vertices + faces) fail(source, "malformed PLY: {} vertices and {} faces declared but only {} lines follow", vertices, faces, lines);
-        } else if (header_bytes + vertices * 12 + faces * 13 > size) {
-            fail(source, "malformed PLY: {} vertices and {} faces need at least {} bytes but the file has {}", vertices, faces,
-                 header_bytes + vertices * 12 + faces * 13, size);
-        }
+        precheck_ply(in, source, size);
     } else if (ext == ".stl") {
         char head[84] = {};
         in.read(head, 84);

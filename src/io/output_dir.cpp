@@ -109,17 +109,13 @@ void StagedOutput::take_lock() {
     fail(lock_path_.string(), "cannot take the output's lock");
 }
 
-// Under the lock no other run writes this target, so its staging and swapped-out folders are left
-// over from runs that died (killed, or a full disk during the clean-up).
+// Under the lock no other run writes this target, so its staging folders (half-written outputs, or
+// old ones swapped out) are left over from runs that died.
 void StagedOutput::remove_stale_staging() const {
-    const std::string prefix = fmt::format(".{}.", absolute_.filename().string());
+    const std::string prefix = fmt::format(".{}.partial-", absolute_.filename().string());
     std::error_code ec;
-    for (const auto& entry : fs::directory_iterator(absolute_.parent_path(), ec)) {
-        const std::string name = entry.path().filename().string();
-        if (name.rfind(prefix, 0) != 0) continue;
-        const std::string rest = name.substr(prefix.size());
-        if (rest.rfind("partial-", 0) == 0 || rest.rfind("old-", 0) == 0) fs::remove_all(entry.path(), ec);
-    }
+    for (const auto& entry : fs::directory_iterator(absolute_.parent_path(), ec))
+        if (entry.path().filename().string().rfind(prefix, 0) == 0) fs::remove_all(entry.path(), ec);
 }
 
 StagedOutput::~StagedOutput() {
@@ -144,9 +140,8 @@ void StagedOutput::commit() {
     if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, absolute_.c_str(), RENAME_EXCHANGE) != 0)
         fail(target_.string(), "cannot swap the finished output into place ({})", std::error_code(errno, std::generic_category()).message());
     committed_ = true;
-    const fs::path old = absolute_.parent_path() / fmt::format(".{}.old-{}", absolute_.filename().string(), ::getpid());
-    fs::rename(staging_, old, ec);
-    fs::remove_all(ec ? staging_ : old, ec);
+    // A run killed during this clean-up leaves a staging folder the next run removes.
+    fs::remove_all(staging_, ec);
 }
 
 }  // namespace amhv

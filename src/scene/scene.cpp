@@ -483,12 +483,9 @@ std::string resolved_toml(const Scene& scene) {
         }
         if (in.limits()) {
             toml::table limits;
-            auto put = [&](const char* key, const std::optional<std::array<double, 2>>& r) {
+            in.for_each_limit([&](const char* key, const std::optional<std::array<double, 2>>& r) {
                 if (r) limits.insert(key, toml::array{(*r)[0], (*r)[1]});
-            };
-            put("distance_m", in.distance_limits_m);
-            put("thetaA_deg", in.theta_a_limits_deg);
-            put("thetaB_deg", in.theta_b_limits_deg);
+            });
             entry.insert("limits", limits);
         }
     }

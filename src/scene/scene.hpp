@@ -56,6 +56,13 @@ struct Intent {
     std::optional<std::array<double, 2>> distance_limits_m, theta_a_limits_deg, theta_b_limits_deg;  // limits: any subset
     bool prefers() const { return distance_m || theta_a_deg || theta_b_deg; }
     bool limits() const { return distance_limits_m || theta_a_limits_deg || theta_b_limits_deg; }
+    // visit(scene key, bounds) for each limit, in the file's order.
+    template <typename Visit>
+    void for_each_limit(Visit&& visit) const {
+        visit("distance_m", distance_limits_m);
+        visit("thetaA_deg", theta_a_limits_deg);
+        visit("thetaB_deg", theta_b_limits_deg);
+    }
 };
 
 struct KeySegment {

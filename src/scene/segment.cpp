@@ -361,12 +361,9 @@ bool within_limits(const Intent& intent, const Solution& s) {
 
 std::string describe_limits(const Intent& intent) {
     std::string out;
-    auto put = [&](const char* key, const std::optional<std::array<double, 2>>& r) {
+    intent.for_each_limit([&](const char* key, const std::optional<std::array<double, 2>>& r) {
         if (r) out += fmt::format("{}{} [{}, {}]", out.empty() ? "" : ", ", key, (*r)[0], (*r)[1]);
-    };
-    put("distance_m", intent.distance_limits_m);
-    put("thetaA_deg", intent.theta_a_limits_deg);
-    put("thetaB_deg", intent.theta_b_limits_deg);
+    });
     return out;
 }
 
