@@ -9,8 +9,9 @@
 // the static volume and inside the moving volume's mapped bounding box are visited, and a column's
 // frames are only compared when the unions overlap (a coarse test that proves "no overlap").
 //
-// Result: mode ANY sets bit 0 of the pose's first flag word when any overlap exists; mode
-// PER_FRAME sets bit t of the pose's flag words for every frame t with an overlap.
+// Result: mode ANY sets bit 0 of the pose's first flag word when any overlap exists; modes
+// PER_FRAME_ALL and PER_FRAME set bit t of the pose's flag words for every frame t with an overlap
+// (PER_FRAME_ALL: every frame is needed, so an item stops at its first frame without one).
 #extension GL_GOOGLE_include_directive : require
 #include "sweep_pose_map.glsl"
 
@@ -37,7 +38,8 @@ layout(std430, set = 0, binding = 6) readonly buffer StaticFrameBoxes { ivec4 st
 layout(std430, set = 0, binding = 7) readonly buffer MovingFrameBoxes { ivec4 moving_frame_boxes[]; };
 
 const int MODE_ANY = 0;
-const int MODE_PER_FRAME = 1;
+const int MODE_PER_FRAME_ALL = 1;
+const int MODE_PER_FRAME = 2;
 
 layout(push_constant) uniform Params {
     uint item_base;
@@ -78,7 +80,7 @@ void main() {
     // The moving volume's mapped box at this pose, in the static volume's local columns.
     ivec4 box = angle.bounds + ivec4(p.y, p.z, p.y, p.z) - ivec4(params.static_x0, params.static_y0, params.static_x0, params.static_y0);
     int frame_block = 0;
-    if (params.mode == MODE_PER_FRAME) {
+    if (params.mode != MODE_ANY) {
         frame_block = chunk / params.spatial_items;
         chunk = chunk % params.spatial_items;
     }
@@ -94,7 +96,7 @@ void main() {
     const uint column_words = uint(params.slots * params.zwords);
     const ivec4 to_local = ivec4(p.y - params.static_x0, p.z - params.static_y0, p.y - params.static_x0, p.z - params.static_y0);
 
-    if (params.mode == MODE_PER_FRAME) {
+    if (params.mode != MODE_ANY) {
         // Frame by frame, only over the columns where both frame boxes meet; a frame is done at its
         // first overlap.
         int t_first = frame_block * params.frames_per_item;
@@ -119,7 +121,7 @@ void main() {
                 }
             }
             if (frame_found) found[t >> 5] |= 1u << uint(t & 31);
-            else if (params.spatial_items == 1) break;  // no overlap anywhere at frame t: the pose fails
+            else if (params.mode == MODE_PER_FRAME_ALL && params.spatial_items == 1) break;  // no overlap anywhere at frame t: the pose fails
         }
         uint flag = uint(params.flag_offset) + pose * uint(params.flag_words);
         for (int w = 0; w < params.flag_words; ++w)

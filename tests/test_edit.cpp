@@ -38,18 +38,19 @@ struct EditFixture {
         return step * (stop_first + f - stop_last);
     }
 
-    explicit EditFixture(const std::string& type = "0&0a", const std::string& extra = "") {
+    // `b_floor`: B's capture sits this much higher (a camera that disagrees on the floor).
+    explicit EditFixture(const std::string& type = "0&0a", const std::string& extra = "", double b_floor = 0) {
         const fs::path root = dir.path();
         for (const char* sub : {"a", "a_labels", "b", "b_labels"}) fs::create_directories(root / sub);
-        auto body = [](const Eigen::Vector2d& at, const Eigen::Vector2d& forward, const fs::path& mesh, const fs::path& labels) {
+        auto body = [](const Eigen::Vector2d& at, const Eigen::Vector2d& forward, double floor, const fs::path& mesh, const fs::path& labels) {
             const Eigen::Vector2d hand = at + 0.3 * forward;
-            test::write_labelled_obj(mesh, labels, {{"body", shapes::capsule({at.x(), at.y(), 0.4}, {at.x(), at.y(), 1.4}, 0.2, 3, 10)},
-                                                    {"hand", shapes::sphere({hand.x(), hand.y(), 1.2}, 0.06, 6, 10)}});
+            test::write_labelled_obj(mesh, labels, {{"body", shapes::capsule({at.x(), at.y(), 0.4 + floor}, {at.x(), at.y(), 1.4 + floor}, 0.2, 3, 10)},
+                                                    {"hand", shapes::sphere({hand.x(), hand.y(), 1.2 + floor}, 0.06, 6, 10)}});
         };
         for (int f = 0; f < 40; ++f)
-            body({walk(f, 15, 24), 0}, {1, 0}, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
+            body({walk(f, 15, 24), 0}, {1, 0}, 0, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
         for (int f = 0; f < 45; ++f)
-            body({0, walk(f, 20, 29)}, {0, 1}, root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f));
+            body({0, walk(f, 20, 29)}, {0, 1}, b_floor, root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f));
         scene = root / "scene.toml";
         std::ofstream(scene) << fmt::format(R"([sampling]
 voxel = 0.03
@@ -192,6 +193,56 @@ TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
     EXPECT_NEAR(stored[2], z, 1e-5);
 }
 
+// Two captures that disagree on the floor by 15 cm: no planar placement joins the hands; z_range
+// finds B lowered, the edit lowers B by the chosen z over the key segment (transforms and PLY), and
+// holds it through the transitions around it.
+TEST(Edit, ZRangeLowersTheHigherCapture) {
+    {
+        EditFixture flat("0&0a", "", 0.15);
+        auto run = test::run_amhv("edit " + flat.quoted() + " --no-frames --out '" + (flat.dir.path() / "e").string() + "'");
+        EXPECT_EQ(run.exit_code, 1) << run.output;
+        EXPECT_NE(run.output.find("has no solution"), std::string::npos) << run.output;
+    }
+    EditFixture fixture("0&0a", "z_range = [-0.2, -0.05]\ncontact_tolerance = 0.02", 0.15);
+    const fs::path out = fixture.dir.path() / "edit";
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const auto result = read_json(out / "result.json");
+    const auto& seg = result.at("segments").at(0);
+    EXPECT_EQ(seg.at("range").at("z_m"), nlohmann::json({-0.18, -0.06}));
+    const double z = seg.at("chosen").at("z").get<double>();
+    EXPECT_LE(z, -0.06 + 1e-9);
+    EXPECT_GE(z, -0.18 - 1e-9);
+    EXPECT_NEAR(z / 0.03, std::round(z / 0.03), 1e-9);
+    const std::string csv = read_text(out / "segment_1/solutions.csv");
+    EXPECT_EQ(csv.rfind("x,y,z,theta_deg,L,thetaA_deg,thetaB_deg\n", 0), 0u);
+    EXPECT_NE(csv.find(fmt::format("\n{:.6f},{:.6f},{:.6f},", seg.at("chosen").at("x").get<double>(), seg.at("chosen").at("y").get<double>(), z)),
+              std::string::npos);
+    const auto transforms = read_json(out / "transforms.json");
+    for (int k = 0; k < 40; ++k) {
+        const auto& frame = transforms.at("output").at(std::size_t(k));
+        EXPECT_EQ(frame.at("A").at("z").get<double>(), 0.0) << k;
+        EXPECT_NEAR(frame.at("B").at("z").get<double>(), z, 1e-12) << k;  // one key segment: held before and after
+        EXPECT_NEAR(frame.at("B").at("matrix")[2][3].get<double>(), z, 1e-12) << k;
+    }
+    // Frame 20's PLY: B's first vertex is its source vertex lowered by z.
+    const std::string ply = read_text(out / "frames/0020.ply");
+    const std::size_t header_end = ply.find("end_header\n") + 11;
+    std::istringstream header(ply.substr(0, header_end));
+    std::string line;
+    std::size_t a_vertices = 0;
+    while (std::getline(header, line))
+        if (line.rfind("comment object B: vertices ", 0) == 0) a_vertices = std::stoul(line.substr(27));
+    std::ifstream obj(fixture.dir.path() / "b/0025.obj");
+    std::string tag;
+    double x, y, vz;
+    while (obj >> tag && tag != "v") {}
+    obj >> x >> y >> vz;
+    float stored[3];
+    std::memcpy(stored, ply.data() + header_end + a_vertices * 15, sizeof(stored));
+    EXPECT_NEAR(stored[2], vz + z, 1e-5);
+}
+
 TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {
     EditFixture fixture;
     const fs::path root = fixture.dir.path();
@@ -224,19 +275,19 @@ TEST(Edit, FromSweepOfAnotherSceneIsRefused) {
     run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "nothing").string() + "' --out '" + (root / "e").string() + "'");
     EXPECT_NE(run.exit_code, 0);
     EXPECT_NE(run.output.find("nothing/result.json: cannot open"), std::string::npos) << run.output;
-    // A solution row that is not six numbers is refused with its line.
+    // A solution row that is not seven numbers is refused with its line.
     ASSERT_EQ(test::run_amhv("sweep " + fixture.quoted() + " --no-maps --out '" + (root / "own").string() + "'").exit_code, 0);
     const fs::path csv = root / "own/segment_1/solutions.csv";
     std::string rows = read_text(csv);
     const std::size_t second = rows.find('\n') + 1;
     ASSERT_NE(rows.find('\n', second), std::string::npos) << "the group needs a solution for this test";
-    for (const char* bad : {"0.1,0.2,4.0,1.0,2.0", "0.1,0.2,4.0,1.0,2.0,3.0,9", "0.1;0.2,4.0,1.0,2.0,3.0", "0.1,x,4.0,1.0,2.0,3.0"}) {
+    for (const char* bad : {"0.1,0.2,0,4.0,1.0,2.0", "0.1,0.2,0,4.0,1.0,2.0,3.0,9", "0.1;0.2,0,4.0,1.0,2.0,3.0", "0.1,x,0,4.0,1.0,2.0,3.0"}) {
         std::string broken = rows;
         broken.replace(second, rows.find('\n', second) - second, bad);
         std::ofstream(csv, std::ios::binary) << broken;
         run = test::run_amhv("edit " + fixture.quoted() + " --from-sweep '" + (root / "own").string() + "' --out '" + (root / "e").string() + "'");
         EXPECT_NE(run.exit_code, 0) << bad;
-        EXPECT_NE(run.output.find("solutions.csv:2: expected six numbers"), std::string::npos) << bad << "\n" << run.output;
+        EXPECT_NE(run.output.find("solutions.csv:2: expected seven numbers"), std::string::npos) << bad << "\n" << run.output;
         EXPECT_FALSE(fs::exists(root / "e"));
     }
 }

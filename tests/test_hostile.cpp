@@ -246,6 +246,19 @@ std::vector<Hostile> scene_cases() {
          "limits.distance_m: must be [low, high] within [0, 100]"},
         {"SceneLimitsAngleRange", with("type = \"0&0a\"", "type = \"0&0a\"\nlimits = { thetaA_deg = [-400, 45] }"), check,
          "limits.thetaA_deg: must be [low, high] within [-180, 180]"},
+        {"SceneContactToleranceNegative", with("type = \"0&0a\"", "type = \"0&0a\"\ncontact_tolerance = -0.01"), check,
+         "scene.toml:15: segments[1].contact_tolerance: -0.01 is out of range [0, 0.5]"},
+        {"SceneContactFramesZero", with("type = \"0&0a\"", "type = \"0&0a\"\ncontact_frames = 0"), check, "segments[1].contact_frames: 0 is out of range (0, 1]"},
+        {"SceneContactFramesOtherType", with("type = \"0&0a\"", "type = \"0&0b\"\ncontact_frames = 0.9"), check,
+         "segments[1].contact_frames: applies to type 0&0a only (this key segment is 0&0b)"},
+        {"SceneZRangeReversed", with("type = \"0&0a\"", "type = \"0&0a\"\nz_range = [0.05, -0.05]"), check,
+         "segments[1].z_range: must be [low, high] in metres within [-1, 1]"},
+        {"SceneZRangeNaN", with("type = \"0&0a\"", "type = \"0&0a\"\nz_range = [nan, 0.05]"), check, "segments[1].z_range"},
+        {"SceneZRangeNoVoxel", with("type = \"0&0a\"", "type = \"0&0a\"\nz_range = [0.01, 0.02]"), sweep, "z_range [0.01, 0.02] holds no whole voxel of 0.04 m"},
+        {"SceneVisibilityFramesAlone", with("type = \"0&0a\"", "type = \"0&0a\"\nvisibility = { enabled = true, frames = 0.8 }"), check,
+         "visibility.frames: applies to per-frame visibility only; add per_frame = true"},
+        {"SceneVisibilityPerFrameOff", with("type = \"0&0a\"", "type = \"0&0a\"\nvisibility = { per_frame = true }"), check,
+         "visibility.per_frame: needs enabled = true"},
         {"SceneBvhMissing", {{"scene.toml", kScene}}, check, "18_01.bvh"},
         {"SceneMemory", with("voxel = 0.04", "voxel = 0.002"), sweep + " --max-memory 0.5", "more than the 0.5 GB --max-memory allows; use a voxel of at least"},
         {"TrackFrameHuge", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1e20,0,0,1.6,1,0,0\n"}},
@@ -265,13 +278,15 @@ std::vector<Hostile> sweep_folder_cases() {
     };
     const std::string at = "solutions.csv:2: ";
     return {
-        {"GroupRowHuge", tampered("@csv:1e300,0.44,0,0.5,0,0"), kEditFromSweep, at + "pose (1e+300, 0.44) is not on the sweep's 0.04 m lattice"},
-        {"GroupRowNaN", tampered("@csv:nan,0.44,0,0.5,0,0"), kEditFromSweep, at + "expected six numbers"},
-        {"GroupRowOffLattice", tampered("@csv:0.290000,0.440000,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.29, 0.44) is not on the sweep's 0.04 m lattice"},
-        {"GroupRowAngleOffLattice", tampered("@csv:0.280000,0.440000,1.000000,0.5,0,0"), kEditFromSweep, at + "theta 1 deg is not on the sweep's 30 deg steps"},
-        {"GroupRowOutsideRange", tampered("@csv:400.000000,0.440000,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (400, 0.44) lies outside the range"},
-        {"GroupRowDescriptors", tampered("@csv:0.280000,0.440000,0.000000,0.521536,10.0,-17.523381"), kEditFromSweep, at + "the descriptors L, thetaA, thetaB are not those of the pose"},
-        {"GroupRowsSwapped", tampered("@csv-swap"), kEditFromSweep, "solutions.csv:3: rows are not in the sweep's (theta, y, x) order"},
+        {"GroupRowHuge", tampered("@csv:1e300,0.44,0,0,0.5,0,0"), kEditFromSweep, at + "pose (1e+300, 0.44, 0) is not on the sweep's 0.04 m lattice"},
+        {"GroupRowNaN", tampered("@csv:nan,0.44,0,0,0.5,0,0"), kEditFromSweep, at + "expected seven numbers"},
+        {"GroupRowOffLattice", tampered("@csv:0.290000,0.440000,0,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.29, 0.44, 0) is not on the sweep's 0.04 m lattice"},
+        {"GroupRowZOffLattice", tampered("@csv:0.280000,0.440000,0.01,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.28, 0.44, 0.01) is not on the sweep's 0.04 m lattice"},
+        {"GroupRowZOutsideRange", tampered("@csv:0.280000,0.440000,0.04,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.28, 0.44, 0.04) lies outside the range"},
+        {"GroupRowAngleOffLattice", tampered("@csv:0.280000,0.440000,0,1.000000,0.5,0,0"), kEditFromSweep, at + "theta 1 deg is not on the sweep's 30 deg steps"},
+        {"GroupRowOutsideRange", tampered("@csv:400.000000,0.440000,0,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (400, 0.44, 0) lies outside the range"},
+        {"GroupRowDescriptors", tampered("@csv:0.280000,0.440000,0,0.000000,0.521536,10.0,-17.523381"), kEditFromSweep, at + "the descriptors L, thetaA, thetaB are not those of the pose"},
+        {"GroupRowsSwapped", tampered("@csv-swap"), kEditFromSweep, "solutions.csv:3: rows are not in the sweep's (z, theta, y, x) order"},
         {"GroupRowMissing", tampered("@csv-short"), kEditFromSweep, "solutions.csv: has"},
         {"GroupHeader", tampered("a,b,c\n"), kEditFromSweep, "solutions.csv:1: expected the header"},
         {"ResultNotJson", {{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/result.json", "{ not json"}}, kEditFromSweep, "result.json: is not valid JSON"},
@@ -343,8 +358,8 @@ TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
     const int i = int(std::lround(segment["range"]["x_m"][0].get<double>() / 0.04)), j = int(std::lround(segment["range"]["y_m"][0].get<double>() / 0.04));
     const Solution s = describe(problem, i, j, 0);
     std::ofstream(d / "sweep" / "segment_1" / "solutions.csv")
-        << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n"
-        << fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
+        << "x,y,z,theta_deg,L,thetaA_deg,thetaB_deg\n"
+        << fmt::format("{:.6f},{:.6f},0.000000,{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
     segment["solutions"] = 1;
     std::ofstream(d / "sweep" / "result.json") << json.dump(2);
     auto edit = test::run_amhv(fmt::format("edit '{0}/scene.toml' --from-sweep '{0}/sweep' --backend cpu --no-frames --out '{0}/out'", d.string()));
@@ -374,8 +389,8 @@ TEST(Intent, LimitsRejectAndCount) {
     std::uint64_t count = 0;
     while (std::getline(rows, line)) {
         ++count;
-        double x, y, theta, distance;
-        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &x, &y, &theta, &distance), 4);
+        double x, y, z, theta, distance;
+        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf", &x, &y, &z, &theta, &distance), 5);
         EXPECT_LE(distance, 0.6);
     }
     EXPECT_EQ(count, kept);

@@ -215,6 +215,154 @@ TEST(Sweep, RandomScenesMatchReference) {
     EXPECT_LT(2 * poses_tested_one_by_one, poses_entering) << poses_tested_one_by_one << " of " << poses_entering;
 }
 
+// Random per-frame view cones for both objects: eyes that drift and gazes that turn.
+void add_frame_cones(SweepProblem& problem, std::mt19937& random) {
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (auto* obj : {&problem.a, &problem.b}) {
+        Box3 region;
+        region.min = obj->root - Vec3(1.6, 1.6, 1.0);
+        region.max = obj->root + Vec3(1.6, 1.6, 1.0);
+        std::vector<ViewCone> cones;
+        const double turn = u(random) * 2.5, start = std::atan2(obj->facing.y(), obj->facing.x());
+        for (int t = 0; t < problem.frames(); ++t) {
+            const double a = start + turn * t / std::max(1, problem.frames() - 1);
+            cones.push_back({obj->root + Vec3(0.05 * t * u(random), 0, 0.6), Vec3(std::cos(a), std::sin(a), -0.2).normalized(), 25, 0});
+        }
+        obj->view_cone = view_cone_volumes(cones, region, problem.voxel);
+    }
+}
+
+// The keys for real captures (docs/method.md section 5a): 0&0 (a) on a fraction of the frames,
+// per-frame visibility on a fraction of the frames, and B raised or lowered within a z range give
+// identical outcomes on both backends, by maps and pose by pose.
+TEST(Sweep, RealCaptureKeysMatchReference) {
+    std::mt19937 random(20261125);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const char* types[] = {"0&0a", "0&0b", "+&-", "0&0c", "+&0", "0&0a", "-&-", "0&+"};
+    std::uint64_t solutions = 0, visibility_rejections = 0, raised_solutions = 0;
+    for (int scene = 0; scene < 16; ++scene) {
+        const double h = 0.03;
+        const int frames = 6 + scene % 5;
+        auto random_performer = [&]() {
+            Performer p;
+            Vec3 body0(u(random) * 0.2, u(random) * 0.2, 0.9), body_v(u(random) * 0.15, u(random) * 0.15, 0);
+            Vec3 hand0(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2 + 0.1 * u(random)), hand_v(u(random) * 0.4, u(random) * 0.4, u(random) * 0.2);
+            for (int f = 0; f < frames; ++f) {
+                double s = double(f) / (frames - 1);
+                Vec3 c = body0 + s * body_v, hand = hand0 + s * hand_v;
+                TriangleMesh body = shapes::capsule(c - Vec3(0, 0, 0.5), c + Vec3(0, 0, 0.5), 0.16, 3, 10);
+                body.append(shapes::capsule(c + Vec3(0, 0, 0.3), hand, 0.05, 2, 8));
+                p.body.push_back(frame_of(body, f));
+                p.part.push_back(frame_of(shapes::sphere(hand, 0.07 + 0.03 * std::abs(u(random)), 6, 10), f));
+            }
+            return p;
+        };
+        Performer a = random_performer(), b = random_performer();
+        Eigen::Vector2d fa(u(random), u(random)), fb(u(random), u(random));
+        auto problem = problem_of(object_from("A", a, h, {}, fa.normalized()), object_from("B", b, h, {}, fb.normalized()), types[scene % 8], h, 30);
+        problem.contact_frames = scene % 2 == 0 ? frames - 1 - scene % 3 : 0;
+        problem.range.z_first = -(scene % 3);
+        problem.range.z_last = scene % 4;
+        if (scene % 4 != 3) {
+            problem.visibility = true;
+            problem.visibility_frames = 1 + scene % frames;
+            add_frame_cones(problem, random);
+        }
+        SCOPED_TRACE("scene " + std::to_string(scene) + " type " + types[scene % 8]);
+        auto both = sweep_both(problem);
+        expect_identical(both);
+        for (const auto& options : {gpu::SweeperOptions{.pose_test_pairs = 1e12}, gpu::SweeperOptions{.block = 3, .maps = false}}) {
+            gpu::VulkanSweeper sweeper(test::context(), options);
+            EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "maps " << options.maps << " block " << options.block;
+            test::expect_no_validation_messages();
+        }
+        solutions += both.gpu.solutions;
+        visibility_rejections += both.gpu.rejected[3];
+        for (const Solution& s : amhv::solutions(problem, both.gpu)) raised_solutions += s.l != 0;
+    }
+    EXPECT_GT(solutions, 0u);
+    EXPECT_GT(visibility_rejections, 0u);
+    EXPECT_GT(raised_solutions, 0u);
+}
+
+// Real hands part: two hands that touch for 7 frames and are 5 cm apart for the last 3. At the
+// true pose 0&0 (a) rejects them; 7 of 10 contact frames or a 7 cm contact tolerance accept them,
+// and 8 frames or a 2 cm tolerance still do not. B's hand is 3 cm lower: z_range finds it raised.
+TEST(Sweep, HandsThatPartPassWithContactFramesOrTolerance) {
+    const double h = 0.01;
+    const int frames = 10;
+    Performer a, b;
+    for (int f = 0; f < frames; ++f) {
+        const double apart = f < 7 ? 0.0 : 0.045;  // the hands overlap by 4 cm, then are 5 cm apart
+        a.body.push_back(frame_of(shapes::capsule(Vec3(-0.45, 0, 0.4), Vec3(-0.45, 0, 1.4), 0.15, 3, 12), f));
+        a.part.push_back(frame_of(shapes::sphere(Vec3(-0.03 - apart, 0, 1.2), 0.05, 8, 12), f));
+        b.body.push_back(frame_of(shapes::capsule(Vec3(0.45, 0, 0.37), Vec3(0.45, 0, 1.37), 0.15, 3, 12), f));
+        b.part.push_back(frame_of(shapes::sphere(Vec3(0.03 + apart, 0, 1.17), 0.05, 8, 12), f));
+    }
+    auto outcome_at_truth = [&](double tolerance, int contact_frames, int z_last) {
+        ObjectParts parts_a;
+        parts_a.grow_interest = tolerance;
+        auto problem = problem_of(object_from("A", a, h, parts_a), object_from("B", b, h), "0&0a", h, 90);
+        problem.contact_frames = contact_frames;
+        problem.range.z_last = z_last;
+        // B's capture frame on A's: the offset between the roots.
+        const Eigen::Vector2d s = (problem.b.root - problem.a.root).head<2>() / h;
+        const int i = int(std::lround(s.x())), j = int(std::lround(s.y()));
+        problem.range.i_first = problem.range.i_last = i;
+        problem.range.j_first = problem.range.j_last = j;
+        auto both = sweep_both(problem);
+        expect_identical(both);
+        return std::array<PoseOutcome, 2>{both.gpu.at(i, j, 0, 0), both.gpu.at(i, j, 0, z_last)};
+    };
+    EXPECT_EQ(outcome_at_truth(0, 0, 0)[0], PoseOutcome::FailsDictionary);
+    EXPECT_EQ(outcome_at_truth(0, 7, 0)[0], PoseOutcome::Solution);
+    EXPECT_EQ(outcome_at_truth(0, 8, 0)[0], PoseOutcome::FailsDictionary);
+    EXPECT_EQ(outcome_at_truth(0.07, 0, 0)[0], PoseOutcome::Solution);
+    EXPECT_EQ(outcome_at_truth(0.02, 0, 0)[0], PoseOutcome::FailsDictionary);
+    // Raised by 3 voxels the hands meet square; with contact on 7 frames both heights pass.
+    EXPECT_EQ(outcome_at_truth(0, 7, 3)[1], PoseOutcome::Solution);
+}
+
+// The swept-body test lets a performer who looks away most of the time "see" the other: B stands
+// looking along +x; A stands in front of B for 2 frames, then behind B for 8. B's cone holds A's
+// swept body, so the paper's test passes; per frame B sees A on 2 of 10 frames, so 0.8 of the
+// frames fails and 0.2 passes.
+TEST(Sweep, PerFrameVisibilityRejectsAPerformerLookingAway) {
+    const double h = 0.02;
+    const int frames = 10;
+    Performer a, b;
+    std::vector<ViewCone> cones_a, cones_b;
+    for (int f = 0; f < frames; ++f) {
+        const double x = f < 2 ? 1.0 : -1.0;
+        a.body.push_back(frame_of(shapes::capsule(Vec3(x, 0, 0.4), Vec3(x, 0, 1.4), 0.15, 3, 12), f));
+        a.part.push_back(frame_of(shapes::sphere(Vec3(x, 0.3, 1.2), 0.05, 6, 10), f));
+        b.body.push_back(frame_of(shapes::capsule(Vec3(0, 0, 0.4), Vec3(0, 0, 1.4), 0.15, 3, 12), f));
+        b.part.push_back(frame_of(shapes::sphere(Vec3(x, 0.3, 1.2), 0.05, 6, 10), f));  // B's part meets A's: contact
+        cones_a.push_back({Vec3(x, 0, 1.5), Vec3(-x, 0, -0.1).normalized(), 30, 0});
+        cones_b.push_back({Vec3(0, 0, 1.5), Vec3(1, 0, -0.1).normalized(), 30, 0});
+    }
+    ObjectParts none{.fidelity = PartRule::Box, .fidelity_box = Box3{Vec3::Constant(50), Vec3::Constant(51)}};
+    auto problem = problem_of(object_from("A", a, h, none), object_from("B", b, h, none), "0&0a", h, 90);
+    const Eigen::Vector2d s = (problem.b.root - problem.a.root).head<2>() / h;
+    problem.range.i_first = problem.range.i_last = int(std::lround(s.x()));
+    problem.range.j_first = problem.range.j_last = int(std::lround(s.y()));
+    Box3 region{Vec3(-3, -3, -0.5), Vec3(3, 3, 2.5)};
+    problem.visibility = true;
+    problem.a.view_cone = view_cone_volume(cones_a.front(), region, h);
+    problem.b.view_cone = view_cone_volume(cones_b.front(), region, h);
+    auto swept = sweep_both(problem);
+    expect_identical(swept);
+    EXPECT_EQ(swept.gpu.outcomes[0], PoseOutcome::Solution);
+    problem.a.view_cone = view_cone_volumes(cones_a, region, h);
+    problem.b.view_cone = view_cone_volumes(cones_b, region, h);
+    for (const auto& [needed, expected] : {std::pair{8, PoseOutcome::FailsVisibility}, std::pair{2, PoseOutcome::Solution}}) {
+        problem.visibility_frames = needed;
+        auto per_frame = sweep_both(problem);
+        expect_identical(per_frame);
+        EXPECT_EQ(per_frame.gpu.outcomes[0], expected) << needed;
+    }
+}
+
 // Work split into many small items (a tiny loop budget) must not change a single outcome, and the
 // default split must handle a large fidelity volume over many frames (which one invocation per pose
 // would take far past lavapipe's loop cap).
@@ -258,7 +406,42 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         }
         if (std::string(type) == "0&0a") {
             EXPECT_GT(both.gpu.rejected[1], 0u);
+            // The keys for real captures at this size too: 30 of 40 frames, B one voxel up or down.
+            problem.contact_frames = 30;
+            problem.range.z_first = -1;
+            problem.range.z_last = 1;
+            auto loose = sweep_both(problem);
+            expect_identical(loose);
+            EXPECT_GT(loose.gpu.solutions, both.gpu.solutions);
+            gpu::VulkanSweeper tiny(test::context(), {.loop_budget = 200, .block = 2, .maps = false});
+            EXPECT_EQ(tiny.sweep(problem).outcomes, loose.reference.outcomes);
         }
+    }
+}
+
+// contact_tolerance grows the part by a ball measured between voxel centres: every voxel within
+// the radius of an occupied one at the same frame, by brute force over pairs.
+TEST(Sweep, GrownPartIsEveryVoxelWithinTheRadius) {
+    std::mt19937 random(3);
+    VoxelGrid grid;
+    grid.voxel = 0.01;
+    grid.origin = Vec3(0.2, -0.1, 0.5);
+    grid.dims = {17, 13, 11};
+    Amhv part(grid, 35);
+    for (int n = 0; n < 40; ++n) part.set(random() % grid.voxel_count(), int(random() % 35));
+    for (double radius : {0.0, 0.01, 0.015, 0.03}) {
+        const Amhv grown = grow_part(part, radius);
+        std::size_t differing = 0;
+        for (int z = 0; z < grid.dims[2]; ++z)
+            for (int y = 0; y < grid.dims[1]; ++y)
+                for (int x = 0; x < grid.dims[0]; ++x)
+                    for (int t = 0; t < 35; ++t) {
+                        bool expected = false;
+                        for (std::size_t u = 0; u < grid.voxel_count() && !expected; ++u)
+                            expected = part.occupied(u, t) && (grid.centre(x, y, z) - grid.centre(int(u % 17), int(u / 17 % 13), int(u / (17 * 13)))).norm() <= radius + 1e-9;
+                        differing += grown.occupied(grid.index(x, y, z), t) != expected;
+                    }
+        EXPECT_EQ(differing, 0u) << radius;
     }
 }
 

@@ -41,21 +41,21 @@ struct BSide {
 // The pull mapping of one pose into one volume of B.
 class PoseLookup {
 public:
-    PoseLookup(const SweepProblem& problem, int i, int j, int k)
-        : i_(i), j_(j), trig_(problem.trig(k)), root_a_(problem.root_a_q()), root_b_(problem.root_b_q()) {}
+    PoseLookup(const SweepProblem& problem, int i, int j, int k, int l)
+        : i_(i), j_(j), l_(l), trig_(problem.trig(k)), root_a_(problem.root_a_q()), root_b_(problem.root_b_q()) {}
 
     // B's voxel of `volume` under A's lattice voxel `u`, if inside B's grid.
     std::optional<std::size_t> operator()(const BVolume& b, const LatticeVoxel& u) const {
         auto source = posemap::source_column(u.gx - i_, u.gy - j_, trig_, root_a_[0], root_a_[1], root_b_[0], root_b_[1]);
         const VoxelGrid& g = b.volume.grid();
         const auto& o = b.origin;
-        std::int64_t x = source.x - o[0], y = source.y - o[1], z = u.gz - o[2];  // z is kept
+        std::int64_t x = source.x - o[0], y = source.y - o[1], z = u.gz - l_ - o[2];  // B raised by l voxels
         if (x < 0 || y < 0 || z < 0 || x >= g.dims[0] || y >= g.dims[1] || z >= g.dims[2]) return std::nullopt;
         return g.index(int(x), int(y), int(z));
     }
 
 private:
-    int i_, j_;
+    int i_, j_, l_;
     posemap::Trig trig_;
     std::array<std::int64_t, 2> root_a_, root_b_;
 };
@@ -70,10 +70,48 @@ bool satisfies(SurfaceLabel label, int t_start, int t_end, int last_frame, int t
 
 struct ASide {
     std::vector<LatticeVoxel> interest, fidelity, whole, cone;
+    Amhv cone_volume;  // A's cone as an aMHV (visibility only)
 };
 
-PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int i, int j, int k) {
-    PoseLookup lookup(p, i, j, k);
+// Visibility (eq. 14): A's cone holds a voxel of W^B and B's moved cone a voxel of W^A; per frame
+// (visibility_frames), each at frame t with the other's body at frame t, on enough frames.
+bool sees_each_other(const SweepProblem& p, const ASide& a, const BSide& b, const PoseLookup& lookup) {
+    if (!p.per_frame_visibility()) {
+        bool a_sees_b = false, b_sees_a = false;
+        for (const LatticeVoxel& u : a.cone)
+            if (auto vb = lookup(b.whole, u); vb && b.whole.any(*vb)) {
+                a_sees_b = true;
+                break;
+            }
+        for (const LatticeVoxel& u : a.whole)
+            if (auto vb = lookup(b.cone, u); vb && b.cone.any(*vb)) {
+                b_sees_a = true;
+                break;
+            }
+        return a_sees_b && b_sees_a;
+    }
+    const Amhv& cone_a = a.cone_volume;
+    int a_frames = 0, b_frames = 0;
+    for (int t = 0; t < p.frames(); ++t) {
+        bool a_sees_b = false, b_sees_a = false;
+        for (const LatticeVoxel& u : a.cone)
+            if (auto vb = lookup(b.whole, u); vb && cone_a.occupied(u.index, t) && b.whole.volume.occupied(*vb, t)) {
+                a_sees_b = true;
+                break;
+            }
+        for (const LatticeVoxel& u : a.whole)
+            if (auto vb = lookup(b.cone, u); vb && p.a.whole.occupied(u.index, t) && b.cone.volume.occupied(*vb, t)) {
+                b_sees_a = true;
+                break;
+            }
+        a_frames += a_sees_b;
+        b_frames += b_sees_a;
+    }
+    return a_frames >= p.visibility_frames && b_frames >= p.visibility_frames;
+}
+
+PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int i, int j, int k, int l) {
+    PoseLookup lookup(p, i, j, k, l);
     const int frames = p.frames();
     const int last = frames - 1;
 
@@ -92,7 +130,7 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int 
                 !satisfies(p.type.b, ib.t_start(vb), ib.t_end(vb), last, p.tolerance))
                 return PoseOutcome::FailsDictionary;
     } else if (p.type.variant == 'a' || p.type.variant == 'b') {
-        // (a): the parts share a voxel at every frame; (b): at some frame.
+        // (a): the parts share a voxel at every frame (at contact_frames of them); (b): at some frame.
         int frames_touching = 0;
         for (int t = 0; t < frames; ++t) {
             bool touching = false;
@@ -103,7 +141,7 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int 
                 }
             frames_touching += touching;
         }
-        bool ok = p.type.variant == 'a' ? frames_touching == frames : frames_touching > 0;
+        bool ok = p.type.variant == 'a' ? frames_touching >= p.touching_frames_needed() : frames_touching > 0;
         if (!ok) return PoseOutcome::FailsDictionary;
     } else {
         // (c): on every contact voxel B left before A arrived.
@@ -119,21 +157,7 @@ PoseOutcome evaluate(const SweepProblem& p, const ASide& a, const BSide& b, int 
             if (p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t)) return PoseOutcome::FailsFidelity;
     }
 
-    // Mutual visibility (eq. 14): A's cone holds a voxel of W^B and B's moved cone a voxel of W^A.
-    if (p.visibility) {
-        bool a_sees_b = false, b_sees_a = false;
-        for (const LatticeVoxel& u : a.cone)
-            if (auto vb = lookup(b.whole, u); vb && b.whole.any(*vb)) {
-                a_sees_b = true;
-                break;
-            }
-        for (const LatticeVoxel& u : a.whole)
-            if (auto vb = lookup(b.cone, u); vb && b.cone.any(*vb)) {
-                b_sees_a = true;
-                break;
-            }
-        if (!a_sees_b || !b_sees_a) return PoseOutcome::FailsVisibility;
-    }
+    if (p.visibility && !sees_each_other(p, a, b, lookup)) return PoseOutcome::FailsVisibility;
     return PoseOutcome::Solution;
 }
 
@@ -147,19 +171,22 @@ SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int firs
     const PoseRange& r = problem.range;
     result.range = r;
     result.outcomes.assign(r.size(), PoseOutcome::FailsContact);
-    ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}};
-    // The plain reference reads the cones as dense one-frame volumes.
-    const Amhv cone_a = problem.visibility ? problem.a.view_cone.to_amhv() : Amhv(), cone_b = problem.visibility ? problem.b.view_cone.to_amhv() : Amhv();
-    if (problem.visibility) a.cone = occupied_voxels(cone_a);
+    ASide a{occupied_voxels(problem.a.interest), occupied_voxels(problem.a.fidelity), occupied_voxels(problem.a.whole), {}, {}};
+    // The plain reference reads the cones as dense volumes (one frame, or one per frame).
+    const Amhv cone_b = problem.visibility ? problem.b.view_cone.to_amhv() : Amhv();
+    if (problem.visibility) {
+        a.cone_volume = problem.a.view_cone.to_amhv();
+        a.cone = occupied_voxels(a.cone_volume);
+    }
     const BSide b{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(cone_b)};
     const int last_angle = std::min(r.angles, first_angle + angle_count);
-    for (int k = first_angle; k < last_angle; ++k) {
-        for (int j = r.j_first; j <= r.j_last; ++j)
-            for (int i = r.i_first; i <= r.i_last; ++i)
-                result.outcomes[(std::size_t(k) * r.height() + (j - r.j_first)) * r.width() + (i - r.i_first)] =
-                    evaluate(problem, a, b, i, j, k);
-        if (progress) progress(k + 1 - first_angle, last_angle - first_angle);
-    }
+    const int steps = (last_angle - first_angle) * r.depth();
+    for (int l = r.z_first; l <= r.z_last; ++l)
+        for (int k = first_angle; k < last_angle; ++k) {
+            for (int j = r.j_first; j <= r.j_last; ++j)
+                for (int i = r.i_first; i <= r.i_last; ++i) result.outcomes[result.index(i, j, k, l)] = evaluate(problem, a, b, i, j, k, l);
+            if (progress) progress((l - r.z_first) * (last_angle - first_angle) + k + 1 - first_angle, steps);
+        }
     result.count();
     return result;
 }

@@ -156,8 +156,11 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
         for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
-        if (key.intent.prefers())
-            for (const Solution& sol : s.solutions) c.extra_unary.push_back(intent_cost(key.intent, sol));
+        // The editor's placements leave B's height as captured (z = 0): with z_range the prior
+        // gains mu z^2, so that among equal poses the one least raised or lowered wins.
+        const bool raised = std::any_of(s.solutions.begin(), s.solutions.end(), [](const Solution& sol) { return sol.l != 0; });
+        if (key.intent.prefers() || raised)
+            for (const Solution& sol : s.solutions) c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z);
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
@@ -216,6 +219,7 @@ void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps,
                 ObjectFrameEdit& f = r.frames[std::size_t(o)][std::size_t(m)];
                 f.yaw = yaw;
                 f.translation = translation;
+                f.lift = o == 1 ? k.chosen.z : 0.0;
                 f.edited_root = rotate(yaw, f.root) + translation;
                 f.edited_facing = f.facing + yaw;
             }
@@ -242,6 +246,11 @@ PathReport optimise_transition(const TimelineSegment& seg, int segment_index, in
     const double turn_first = before ? turn_at(first) : turn_at(last), turn_last = after ? turn_at(last) : turn_first;
     for (int m = first; m <= last; ++m)
         p.turns.push_back(turn_first + (turn_last - turn_first) * (last > first ? double(m - first) / (last - first) : 0.0));
+    // B's height, blended the same way (the ends hold the key segment's).
+    const double lift_first = before ? frames[std::size_t(first)].lift : frames[std::size_t(last)].lift;
+    const double lift_last = after ? frames[std::size_t(last)].lift : lift_first;
+    for (int m = seg.first; m < seg.first + seg.length; ++m)
+        frames[std::size_t(m)].lift = lift_first + (lift_last - lift_first) * (last > first ? double(m - first) / (last - first) : 0.0);
     const PathSolution sol = optimise_path(p, pw);
     PathReport report{segment_index, o, seg.length, sol.root_cost, sol.facing_cost, 0};
     for (int m = seg.first; m < seg.first + seg.length; ++m) {

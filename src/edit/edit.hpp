@@ -37,6 +37,9 @@ struct ObjectFrameEdit {
     double edited_facing = 0;
     double yaw = 0;
     Eigen::Vector2d translation = Eigen::Vector2d::Zero();
+    // Vertical shift into the scene: B's chosen z (z_range) in a key segment, blended linearly
+    // across a transition between the key segments around it; 0 for A.
+    double lift = 0;
 };
 
 struct KeyEdit {

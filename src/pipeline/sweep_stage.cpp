@@ -79,11 +79,13 @@ void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSourc
         const Solution& pose = key.chosen;
         const std::string where = fmt::format("{}/segment_{}/solutions.csv", from_sweep, key.index);
         const PoseRange& r = problem.range;
-        if (pose.i < r.i_first || pose.i > r.i_last || pose.j < r.j_first || pose.j > r.j_last)
-            fail(where, "the chosen pose ({}, {}, {} deg) lies outside the poses key segment {} sweeps", pose.x, pose.y, pose.theta_deg, key.index);
+        if (pose.i < r.i_first || pose.i > r.i_last || pose.j < r.j_first || pose.j > r.j_last || pose.l < r.z_first || pose.l > r.z_last)
+            fail(where, "the chosen pose ({}, {}, z {}, {} deg) lies outside the poses key segment {} sweeps", pose.x, pose.y, pose.z, pose.theta_deg,
+                 key.index);
         problem.range.i_first = problem.range.i_last = pose.i;
         problem.range.j_first = problem.range.j_last = pose.j;
-        const PoseOutcome outcome = ReferenceSweeper().sweep_angles(problem, pose.k, 1).at(pose.i, pose.j, pose.k);
+        problem.range.z_first = problem.range.z_last = pose.l;
+        const PoseOutcome outcome = ReferenceSweeper().sweep_angles(problem, pose.k, 1).at(pose.i, pose.j, pose.k, pose.l);
         if (outcome != PoseOutcome::Solution)
             fail(where, "the chosen pose ({}, {}, {} deg) is not a solution of key segment {}: it fails {} (was the folder swept from this scene?)",
                  pose.x, pose.y, pose.theta_deg, key.index, kConstraint[int(outcome)]);

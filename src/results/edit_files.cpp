@@ -122,8 +122,9 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
                 {"source", e.source},
                 {"x", e.translation.x()},
                 {"y", e.translation.y()},
+                {"z", e.lift},
                 {"yaw_deg", angles::wrap_degrees(angles::degrees(e.yaw))},
-                {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, 0.0}, {0.0, 0.0, 0.0, 1.0}}},
+                {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, e.lift}, {0.0, 0.0, 0.0, 1.0}}},
                 {"root", {e.edited_root.x(), e.edited_root.y()}},
                 {"facing_deg", angles::wrap_degrees(angles::degrees(e.edited_facing))},
             };
@@ -152,7 +153,7 @@ EditedFrame edited_frame(const EditResult& edit, int k, ObjectSource& a, ObjectS
         const Eigen::Rotation2Dd rotation(e.yaw);
         for (Vec3& v : mesh.vertices) {
             const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
-            v = Vec3(p.x(), p.y(), v.z());
+            v = Vec3(p.x(), p.y(), v.z() + e.lift);
         }
         frame.both.append(mesh);
         frame.vertices_from[std::size_t(o) + 1] = frame.both.vertices.size();

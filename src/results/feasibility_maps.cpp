@@ -65,7 +65,7 @@ void write_feasibility_exr(const std::filesystem::path& folder, const SweepProbl
     const int width = r.width(), height = r.height();
     for (int row = 0; row < height; ++row)
         for (int col = 0; col < width; ++col) {
-            PoseOutcome outcome = result.at(r.i_first + col, r.j_last - row, k);  // top row = largest y
+            PoseOutcome outcome = result.best_over_heights(r.i_first + col, r.j_last - row, k);  // top row = largest y
             std::size_t pixel = std::size_t(row) * width + col;
             for (int c = 0; c < 3; ++c) planes[std::size_t(c) * width * height + pixel] = linear[std::size_t(outcome)][std::size_t(c)];
             planes[std::size_t(3) * width * height + pixel] = float(int(outcome));
@@ -78,6 +78,8 @@ void write_feasibility_exr(const std::filesystem::path& folder, const SweepProbl
     put("amhv:theta_deg", fmt::format("{}", problem.angle_lattice().wrapped_degrees(k)));
     put("amhv:x_m", fmt::format("column c is x = {} + c * {} m (offset of B's root from A's root)", r.i_first * problem.voxel, problem.voxel));
     put("amhv:y_m", fmt::format("row 0 is y = {} m, each row down {} m less", r.j_last * problem.voxel, problem.voxel));
+    if (r.depth() > 1)
+        put("amhv:z_m", fmt::format("each pixel is the furthest outcome over B raised by {} .. {} m", r.z_first * problem.voxel, r.z_last * problem.voxel));
     put("amhv:passed", "constraints passed in order contact, dictionary, fidelity, visibility; 4 = solution");
     Imf::FrameBuffer buffer;
     for (int c = 0; c < 4; ++c)
@@ -121,7 +123,7 @@ int write_feasibility_maps(const std::filesystem::path& folder, const SweepProbl
         int ox = 2 + (k % columns) * (tile_w + 2), oy = 2 + (k / columns) * (tile_h + 2);
         for (int ty = 0; ty < tile_h; ++ty)
             for (int tx = 0; tx < tile_w; ++tx) {
-                auto colour = outcome_colour(result.at(r.i_first + tx * scale_down, r.j_last - ty * scale_down, k));
+                auto colour = outcome_colour(result.best_over_heights(r.i_first + tx * scale_down, r.j_last - ty * scale_down, k));
                 std::uint8_t* p = rgb.data() + (std::size_t(oy + ty) * image_w + (ox + tx)) * 3;
                 p[0] = colour[0], p[1] = colour[1], p[2] = colour[2];
             }

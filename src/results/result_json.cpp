@@ -44,7 +44,16 @@ Json truth_json(const Scene& scene, const SweepProblem& problem, const std::vect
 }
 
 Json solution_json(const Solution& s) {
-    return {{"x", s.x}, {"y", s.y}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
+    return {{"x", s.x}, {"y", s.y}, {"z", s.z}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
+}
+
+// The keys for real captures as result.json records them (and --from-sweep compares them).
+Json capture_keys_json(const KeySegment& segment) {
+    return {{"contact_tolerance_m", segment.contact_tolerance},
+            {"contact_frames", segment.contact_frames},
+            {"z_range_m", segment.z_range ? Json(*segment.z_range) : Json(nullptr)},
+            {"visibility_per_frame", segment.visibility.per_frame},
+            {"visibility_frames", segment.visibility.frames}};
 }
 
 // views/key_N.png and the output frame each shows.
@@ -68,8 +77,10 @@ const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySe
         s->at("interest").at("B").get<std::string>() != key.interest_b.describe() ||
         s->at("fidelity").at("A").get<std::string>() != key.fidelity_a.describe() ||
         s->at("fidelity").at("B").get<std::string>() != key.fidelity_b.describe() ||
-        (s->contains("limits") ? s->at("limits").get<std::string>() : std::string()) != describe_limits(key.intent))
-        fail(where, "key segment {} was swept with other frames, type, tolerance, visibility, parts or limits than the scene says", key.index);
+        (s->contains("limits") ? s->at("limits").get<std::string>() : std::string()) != describe_limits(key.intent) ||
+        !s->contains("capture") || s->at("capture") != nlohmann::json::parse(capture_keys_json(key).dump()))
+        fail(where, "key segment {} was swept with other frames, type, tolerance, visibility, parts, limits or contact keys than the scene says",
+             key.index);
     return *s;
 }
 
@@ -116,19 +127,21 @@ void check_group(const std::vector<Solution>& group, const nlohmann::json& entry
     const auto x_m = entry.at("range").at("x_m").get<std::array<double, 2>>(), y_m = entry.at("range").at("y_m").get<std::array<double, 2>>();
     const int i_first = int(std::lround(x_m[0] / h)), i_last = int(std::lround(x_m[1] / h));
     const int j_first = int(std::lround(y_m[0] / h)), j_last = int(std::lround(y_m[1] / h));
+    const auto z_m = entry.at("range").at("z_m").get<std::array<double, 2>>();
+    const int l_first = int(std::lround(z_m[0] / h)), l_last = int(std::lround(z_m[1] / h));
     constexpr double kPrinted = 2e-6;  // the CSV's 6 decimals
-    std::array<int, 3> previous{-1, 0, 0};
+    std::array<int, 4> previous{std::numeric_limits<int>::min(), 0, 0, 0};
     for (std::size_t r = 0; r < group.size(); ++r) {
         const Solution& s = group[r];
         const std::string where = fmt::format("{}:{}", csv.string(), r + 2);
-        if (std::abs(s.x - s.i * h) > kPrinted || std::abs(s.y - s.j * h) > kPrinted)
-            fail(where, "pose ({}, {}) is not on the sweep's {} m lattice", s.x, s.y, h);
-        if (s.i < i_first || s.i > i_last || s.j < j_first || s.j > j_last)
-            fail(where, "pose ({}, {}) lies outside the range the segment was swept over", s.x, s.y);
-        const std::array<int, 3> order{s.k, s.j, s.i};
-        if (order <= previous) fail(where, "rows are not in the sweep's (theta, y, x) order, or repeat a pose");
+        if (std::abs(s.x - s.i * h) > kPrinted || std::abs(s.y - s.j * h) > kPrinted || std::abs(s.z - s.l * h) > kPrinted)
+            fail(where, "pose ({}, {}, {}) is not on the sweep's {} m lattice", s.x, s.y, s.z, h);
+        if (s.i < i_first || s.i > i_last || s.j < j_first || s.j > j_last || s.l < l_first || s.l > l_last)
+            fail(where, "pose ({}, {}, {}) lies outside the range the segment was swept over", s.x, s.y, s.z);
+        const std::array<int, 4> order{s.l, s.k, s.j, s.i};
+        if (order <= previous) fail(where, "rows are not in the sweep's (z, theta, y, x) order, or repeat a pose");
         previous = order;
-        const Solution expected = describe(problem, s.i, s.j, s.k);
+        const Solution expected = describe(problem, s.i, s.j, s.k, s.l);
         if (std::abs(expected.distance - s.distance) > kPrinted || angles::degrees_apart(expected.theta_a_deg, s.theta_a_deg) > kPrinted ||
             angles::degrees_apart(expected.theta_b_deg, s.theta_b_deg) > kPrinted)
             fail(where, "the descriptors L, thetaA, thetaB are not those of the pose: the row was not written by this sweep");
@@ -168,6 +181,7 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
                      {"visibility", result.rejected[3]}, {"limits", limited}};
     s["range"] = {{"x_m", {problem.range.i_first * problem.voxel, problem.range.i_last * problem.voxel}},
                   {"y_m", {problem.range.j_first * problem.voxel, problem.range.j_last * problem.voxel}},
+                  {"z_m", {problem.range.z_first * problem.voxel, problem.range.z_last * problem.voxel}},
                   {"angles", problem.range.angles}};
     s["root_m"] = {{"A", vec3(problem.a.root)}, {"B", vec3(problem.b.root)}};
     s["facing"] = {{"A", {problem.a.facing.x(), problem.a.facing.y()}}, {"B", {problem.b.facing.x(), problem.b.facing.y()}}};
@@ -176,6 +190,7 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
                        {"range_m", segment.visibility.range}};
     s["interest"] = {{"A", segment.interest_a.describe()}, {"B", segment.interest_b.describe()}};
     s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
+    s["capture"] = capture_keys_json(segment);
     if (segment.intent.limits()) s["limits"] = describe_limits(segment.intent);
     s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
                   {"feasibility", files.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},

@@ -1,5 +1,6 @@
 #include "src/results/solutions_csv.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -16,7 +17,7 @@ namespace amhv {
 void write_solutions_csv(const std::filesystem::path& path, const std::vector<Solution>& solutions) {
     std::ofstream out(path, std::ios::binary);
     if (!out) fail(path.string(), "cannot create the file");
-    out << "x,y,theta_deg,L,thetaA_deg,thetaB_deg\n";
+    out << kSolutionsHeader << '\n';
     // Groups of millions of solutions: chunks are formatted on all cores, then written in order.
     constexpr std::size_t kChunk = 1 << 16;
     const std::size_t chunks = (solutions.size() + kChunk - 1) / kChunk;
@@ -30,14 +31,14 @@ void write_solutions_csv(const std::filesystem::path& path, const std::vector<So
             buffer.clear();
             // std::to_chars prints the correctly rounded "%.6f", like fmt, several times faster.
             constexpr int kRoom = 330;  // the longest fixed-point double with 6 decimals, and a separator
-            char line[6 * kRoom];
+            char line[7 * kRoom];
             for (std::size_t i = begin; i < end; ++i) {
                 const Solution& s = solutions[i];
-                const double values[] = {s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg};
+                const double values[] = {s.x, s.y, s.z, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg};
                 char* at = line;
-                for (int v = 0; v < 6; ++v) {
+                for (int v = 0; v < 7; ++v) {
                     at = std::to_chars(at, at + kRoom - 1, values[v], std::chars_format::fixed, 6).ptr;
-                    *at++ = v < 5 ? ',' : '\n';
+                    *at++ = v < 6 ? ',' : '\n';
                 }
                 buffer.append(line, std::size_t(at - line));
             }
@@ -55,29 +56,30 @@ std::vector<Solution> read_solutions_csv(const std::filesystem::path& path, doub
     int number = 0;
     while (std::getline(rows, line)) {
         ++number;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
         if (number == 1) {
-            if (line.rfind("x,y,theta_deg", 0) != 0) fail(path.string() + ":1", "expected the header x,y,theta_deg,L,thetaA_deg,thetaB_deg");
+            if (line != kSolutionsHeader) fail(path.string() + ":1", "expected the header {}", kSolutionsHeader);
             continue;
         }
-        if (!line.empty() && line.back() == '\r') line.pop_back();
         if (line.empty()) continue;
-        // Six comma-separated numbers (std::from_chars: exact, and far faster than streams on groups
-        // of millions of rows).
+        // Seven comma-separated numbers (std::from_chars: exact, and far faster than streams on
+        // groups of millions of rows).
         Solution sol;
-        double* fields[] = {&sol.x, &sol.y, &sol.theta_deg, &sol.distance, &sol.theta_a_deg, &sol.theta_b_deg};
+        double* fields[] = {&sol.x, &sol.y, &sol.z, &sol.theta_deg, &sol.distance, &sol.theta_a_deg, &sol.theta_b_deg};
         const char* at = line.data();
         const char* end = line.data() + line.size();
         bool ok = true;
-        for (int f = 0; f < 6 && ok; ++f) {
+        for (int f = 0; f < 7 && ok; ++f) {
             while (at < end && *at == ' ') ++at;
             const auto [next, error] = std::from_chars(at, end, *fields[f]);
-            ok = error == std::errc() && (f < 5 ? next < end && *next == ',' : next == end);
+            ok = error == std::errc() && (f < 6 ? next < end && *next == ',' : next == end);
             at = next + 1;
         }
-        if (!ok || !std::isfinite(sol.x + sol.y + sol.theta_deg)) fail(fmt::format("{}:{}", path.string(), number), "expected six numbers");
+        if (!ok || !std::isfinite(sol.x + sol.y + sol.z + sol.theta_deg)) fail(fmt::format("{}:{}", path.string(), number), "expected seven numbers");
         // The file's edge: metres and degrees back to the lattice.
-        sol.i = int(std::lround(sol.x / voxel));
-        sol.j = int(std::lround(sol.y / voxel));
+        sol.i = int(std::lround(std::clamp(sol.x / voxel, -1e9, 1e9)));
+        sol.j = int(std::lround(std::clamp(sol.y / voxel, -1e9, 1e9)));
+        sol.l = int(std::lround(std::clamp(sol.z / voxel, -1e9, 1e9)));
         sol.k = lattice.index_of_degrees(sol.theta_deg);
         if (angles::degrees_apart(sol.theta_deg, lattice.wrapped_degrees(sol.k)) > 2e-6)
             fail(fmt::format("{}:{}", path.string(), number), "theta {} deg is not on the sweep's {} deg steps", sol.theta_deg, lattice.step_deg);

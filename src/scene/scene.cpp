@@ -43,7 +43,7 @@ public:
         if (!node->is_number()) error(key, node, "must be a number, not {}", type_name(*node));
         double v = node->value<double>().value();
         if (!std::isfinite(v) || v < min || v > max || (!min_inclusive && v == min))
-            error(key, node, "{} is out of range ({}{}, {}]", v, min_inclusive ? "[" : "(", min, max);
+            error(key, node, "{} is out of range {}{}, {}]", v, min_inclusive ? "[" : "(", min, max);
         return v;
     }
     std::optional<int> integer(const std::string& key, int min, int max) {
@@ -278,6 +278,20 @@ namespace {
 
 // prefer = { distance_m, thetaA_deg, thetaB_deg, weight } and limits = { distance_m = [lo, hi],
 // thetaA_deg = [lo, hi], thetaB_deg = [lo, hi] }, every key optional.
+void read_real_capture_keys(TableReader& t, KeySegment& k) {
+    k.contact_tolerance = t.number("contact_tolerance", 0, 0.5).value_or(0);
+    if (auto f = t.number("contact_frames", 0, 1, false)) {
+        if (!(k.type.lateral_pair() && k.type.variant == 'a'))
+            t.error("contact_frames", t.get("contact_frames"), "applies to type 0&0a only (this key segment is {})", k.type.name());
+        k.contact_frames = *f;
+    }
+    if (auto z = t.numbers<2>("z_range")) {
+        if (!((*z)[0] <= (*z)[1]) || (*z)[0] < -1 || (*z)[1] > 1)
+            t.error("z_range", t.get("z_range"), "must be [low, high] in metres within [-1, 1]");
+        k.z_range = z;
+    }
+}
+
 void read_intent(TableReader& segment, Intent& intent) {
     TableReader prefer = segment.table("prefer");
     intent.distance_m = prefer.number("distance_m", 0, 100);
@@ -393,7 +407,15 @@ Scene load_scene(const fs::path& file) {
         k.visibility.enabled = vis.boolean("enabled").value_or(false);
         k.visibility.half_angle_deg = vis.number("half_angle_deg", 0, 90, false).value_or(30);
         k.visibility.range = vis.number("range", 0, 1000).value_or(0);
+        k.visibility.per_frame = vis.boolean("per_frame").value_or(false);
+        if (auto f = vis.number("frames", 0, 1, false)) {
+            if (!k.visibility.per_frame) vis.error("frames", vis.get("frames"), "applies to per-frame visibility only; add per_frame = true");
+            k.visibility.frames = *f;
+        }
+        if (k.visibility.per_frame && !k.visibility.enabled)
+            vis.error("per_frame", vis.get("per_frame"), "needs enabled = true");
         vis.finish();
+        read_real_capture_keys(t, k);
         read_intent(t, k.intent);
         read_parts(t, "interest", scene, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
         read_parts(t, "fidelity", scene, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
@@ -468,11 +490,18 @@ std::string resolved_toml(const Scene& scene) {
             {"normalised_frames", pair.length},
             {"type", k.type.name()},
             {"tolerance", k.tolerance},
-            {"visibility", toml::table{{"enabled", k.visibility.enabled}, {"half_angle_deg", k.visibility.half_angle_deg}, {"range", k.visibility.range}}},
+            {"contact_tolerance", k.contact_tolerance},
+            {"contact_frames", k.contact_frames},
+            {"visibility", toml::table{{"enabled", k.visibility.enabled},
+                                       {"half_angle_deg", k.visibility.half_angle_deg},
+                                       {"range", k.visibility.range},
+                                       {"per_frame", k.visibility.per_frame},
+                                       {"frames", k.visibility.frames}}},
             {"interest", toml::table{{"A", part_node(k.interest_a)}, {"B", part_node(k.interest_b)}}},
             {"fidelity", toml::table{{"A", part_node(k.fidelity_a)}, {"B", part_node(k.fidelity_b)}}},
         });
         toml::table& entry = *segments.back().as_table();
+        if (k.z_range) entry.insert("z_range", toml::array{(*k.z_range)[0], (*k.z_range)[1]});
         const Intent& in = k.intent;
         if (in.prefers()) {
             toml::table prefer{{"weight", in.weight}};

@@ -46,6 +46,10 @@ struct VisibilitySpec {
     bool enabled = false;
     double half_angle_deg = 30;
     double range = 0;  // metres; 0 = unlimited
+    // Each cone at frame t (from the track at t) against the other's body at frame t, on at least
+    // this fraction of the frames; off: the cones over the segment against the swept bodies.
+    bool per_frame = false;
+    double frames = 1;
 };
 
 // The editor's intent for a key segment (docs/method.md section 7, "Intent"): the descriptors it
@@ -70,6 +74,11 @@ struct KeySegment {
     std::array<int, 2> a{}, b{};  // inclusive frame numbers in A and in B
     InteractionType type;
     int tolerance = 0;
+    // For real captures (docs/method.md section 5a): A's interest part grown by this radius
+    // (metres); 0&0 (a) on at least this fraction of the frames; B raised or lowered within z_range.
+    double contact_tolerance = 0;
+    double contact_frames = 1;
+    std::optional<std::array<double, 2>> z_range;
     VisibilitySpec visibility;
     PartSpec interest_a, interest_b, fidelity_a, fidelity_b;
     Intent intent;

@@ -248,9 +248,11 @@ SegmentMeshes segment_meshes(ObjectSource& source, int first, const std::vector<
     return m;
 }
 
-// One object's volumes in one key segment (docs/method.md sections 3 and 9).
+// One object's volumes in one key segment (docs/method.md sections 3 and 9); the interest part
+// grown by `grow` metres (contact_tolerance).
 SweepObject segment_object(ObjectSource& source, int first, const std::vector<int>& relative, const PartSpec& interest,
-                           const PartSpec& fidelity, double h, Voxeliser& voxeliser, const std::string& where, std::vector<int>& numbers) {
+                           const PartSpec& fidelity, double h, Voxeliser& voxeliser, const std::string& where, std::vector<int>& numbers,
+                           double grow) {
     const std::string& name = source.spec().name;
     SegmentMeshes meshes = segment_meshes(source, first, relative, interest, fidelity);
     numbers = meshes.numbers;
@@ -267,18 +269,49 @@ SweepObject segment_object(ObjectSource& source, int first, const std::vector<in
     parts.fidelity_is_separate = fidelity.kind == PartSpec::Kind::Meshes;
     if (interest.kind == PartSpec::Kind::Box) parts.interest_box = interest.box;
     if (fidelity.kind == PartSpec::Kind::Box) parts.fidelity_box = fidelity.box;
+    parts.grow_interest = grow;
     SweepObject object = build_sweep_object(name, meshes.frames, parts, h, voxeliser);
     object.facing = segment_facing(source, numbers);
     return object;
 }
 
+// `region` cut to where cones of a limited range reach from their eyes.
+Box3 within_range(const Box3& region, const std::vector<ViewCone>& cones, double h) {
+    if (cones.front().range <= 0) return region;
+    Box3 reach;
+    for (const ViewCone& cone : cones) {
+        reach.extend(cone.eye - Vec3::Constant(cone.range));
+        reach.extend(cone.eye + Vec3::Constant(cone.range));
+    }
+    Box3 r = region;
+    r.min = r.min.cwiseMax(reach.min);
+    r.max = r.max.cwiseMin(reach.max);
+    if (r.empty()) r.min = r.max = cones.front().eye;
+    r.max += Vec3::Constant(h);
+    return r;
+}
+
 // An object's view cone over `region` (docs/method.md section 5): from the mean track, or without
-// one, eyes 10 cm below the top of the body above the root, looking along the facing.
+// one, eyes 10 cm below the top of the body above the root, looking along the facing. Per frame
+// (visibility.per_frame), one cone per normalised frame from the track at that frame.
 ConeVolume segment_cone(const SweepObject& self, ObjectSource& source, const std::vector<int>& numbers, const Box3& region,
                         const VisibilitySpec& visibility, double h) {
     ViewCone cone;
     cone.half_angle_deg = visibility.half_angle_deg;
     cone.range = visibility.range;
+    if (visibility.per_frame) {
+        std::vector<ViewCone> cones;
+        for (int number : numbers) {
+            const auto sample = source.track(number);
+            if (!sample || !(sample->gaze.norm() > 1e-9))
+                fail("object " + source.spec().name, "has no view track at frame {}; per-frame visibility needs one at every frame (a track file, or a BVH take)",
+                     number);
+            cone.eye = sample->eye;
+            cone.gaze = sample->gaze.normalized();
+            cones.push_back(cone);
+        }
+        return view_cone_volumes(cones, within_range(region, cones, h), h);
+    }
     auto mean = mean_track(source, numbers);
     if (mean && mean->gaze.norm() > 1e-9) {
         cone.eye = mean->eye;
@@ -288,14 +321,7 @@ ConeVolume segment_cone(const SweepObject& self, ObjectSource& source, const std
         cone.eye = Vec3(self.root.x(), self.root.y(), bounds.max.z() - 0.1);
         cone.gaze = Vec3(self.facing.x(), self.facing.y(), 0);
     }
-    Box3 r = region;
-    if (cone.range > 0) {
-        r.min = r.min.cwiseMax(cone.eye - Vec3::Constant(cone.range));
-        r.max = r.max.cwiseMin(cone.eye + Vec3::Constant(cone.range));
-        if (r.empty()) r.min = r.max = cone.eye;
-        r.max += Vec3::Constant(h);
-    }
-    return view_cone_volume(cone, r, h);
+    return view_cone_volume(cone, within_range(region, {cone}, h), h);
 }
 
 // Each cone is rasterised over the region where the other's body can be at any pose of the range.
@@ -307,13 +333,16 @@ void add_view_cones(SweepProblem& p, ObjectSource& a, ObjectSource& b, const std
     const VoxelGrid& ga = p.a.whole.grid();
     const VoxelGrid& gb = p.b.whole.grid();
     const double reach_a = reach_from(p.a.whole, p.a.root), reach_b = reach_from(p.b.whole, p.b.root);
+    // B raised by z_first .. z_last voxels: A's body seen from B is lowered as much.
+    const double raise_first = p.range.z_first * h, raise_last = p.range.z_last * h;
     Box3 region_a;  // where B's body can be, in A's frame
-    region_a.min = Vec3(p.a.root.x() + p.range.i_first * h - reach_b, p.a.root.y() + p.range.j_first * h - reach_b, gb.origin.z());
-    region_a.max = Vec3(p.a.root.x() + p.range.i_last * h + reach_b, p.a.root.y() + p.range.j_last * h + reach_b, gb.origin.z() + gb.dims[2] * h);
+    region_a.min = Vec3(p.a.root.x() + p.range.i_first * h - reach_b, p.a.root.y() + p.range.j_first * h - reach_b, gb.origin.z() + raise_first);
+    region_a.max = Vec3(p.a.root.x() + p.range.i_last * h + reach_b, p.a.root.y() + p.range.j_last * h + reach_b,
+                        gb.origin.z() + gb.dims[2] * h + raise_last);
     Box3 region_b;  // where A's body can be, in B's frame
     const double r = reach_a + s_max + h;
-    region_b.min = Vec3(p.b.root.x() - r, p.b.root.y() - r, ga.origin.z());
-    region_b.max = Vec3(p.b.root.x() + r, p.b.root.y() + r, ga.origin.z() + ga.dims[2] * h);
+    region_b.min = Vec3(p.b.root.x() - r, p.b.root.y() - r, ga.origin.z() - raise_last);
+    region_b.max = Vec3(p.b.root.x() + r, p.b.root.y() + r, ga.origin.z() + ga.dims[2] * h - raise_first);
     p.a.view_cone = segment_cone(p.a, a, numbers_a, region_a, visibility, h);
     p.b.view_cone = segment_cone(p.b, b, numbers_b, region_b, visibility, h);
 }
@@ -327,10 +356,16 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     const std::string where = fmt::format("{}: segments[{}]", scene.file.string(), segment.index);
     std::vector<int> numbers_a, numbers_b;
     SweepProblem& p = build.problem;
-    p.a = segment_object(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, h, voxeliser, where, numbers_a);
-    p.b = segment_object(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, h, voxeliser, where, numbers_b);
+    // contact_tolerance grows A's part only: the gap between the parts closes by the radius once.
+    p.a = segment_object(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, h, voxeliser, where, numbers_a,
+                         segment.contact_tolerance);
+    p.b = segment_object(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, h, voxeliser, where, numbers_b, 0);
     p.type = segment.type;
     p.tolerance = segment.tolerance;
+    const int tau = build.frames.length;
+    // ceil(f tau), with a guard against 0.9 * 40 landing a hair above 36.
+    auto frames_of = [tau](double fraction) { return std::clamp(int(std::ceil(fraction * tau - 1e-9)), 1, tau); };
+    if (segment.contact_frames < 1) p.contact_frames = frames_of(segment.contact_frames);
     p.voxel = h;
     p.angle_step_deg = scene.sampling.angle_step_deg;
     for (const SweepObject* o : {&p.a, &p.b})
@@ -338,7 +373,14 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     p.range = automatic_range(p.a, p.b, h, scene.sampling.angles());
     narrow_range(p.range, h, scene.sampling.x_range ? &*scene.sampling.x_range : nullptr,
                  scene.sampling.y_range ? &*scene.sampling.y_range : nullptr);
+    if (segment.z_range) {
+        p.range.z_first = int(std::ceil((*segment.z_range)[0] / h - 1e-9));
+        p.range.z_last = int(std::floor((*segment.z_range)[1] / h + 1e-9));
+        if (p.range.z_first > p.range.z_last)
+            fail(where, "z_range [{}, {}] holds no whole voxel of {} m", (*segment.z_range)[0], (*segment.z_range)[1], h);
+    }
     p.visibility = segment.visibility.enabled;
+    if (p.visibility && segment.visibility.per_frame) p.visibility_frames = frames_of(segment.visibility.frames);
     if (p.visibility) add_view_cones(p, a, b, numbers_a, numbers_b, segment.visibility);
     validate(p);
     return build;

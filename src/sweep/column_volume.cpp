@@ -44,14 +44,16 @@ void for_each_occupied_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& 
 
 }  // namespace
 
-ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids) {
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised, int lift) {
     std::int64_t first = std::numeric_limits<std::int64_t>::max(), last = std::numeric_limits<std::int64_t>::min();
-    for (const VoxelGrid* g : grids) {
-        if (g->dims[2] == 0) continue;
-        std::int64_t z0 = g->lattice_origin()[2];
+    auto cover = [&](const VoxelGrid* g, int by) {
+        if (g->dims[2] == 0) return;
+        std::int64_t z0 = g->lattice_origin()[2] + by;
         first = std::min(first, z0);
         last = std::max(last, z0 + g->dims[2] - 1);
-    }
+    };
+    for (const VoxelGrid* g : grids) cover(g, 0);
+    for (const VoxelGrid* g : raised) cover(g, lift);
     if (first > last) return {0, 1};
     return {first, int((last - first) / 32 + 1)};
 }
@@ -109,13 +111,21 @@ ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
     return c;
 }
 
-ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z) {
-    ColumnVolume c = empty_like(cone.grid, z, 1);
+ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z, bool with_frames) {
+    const bool per_frame = with_frames && cone.frames > 1;
+    ColumnVolume c = empty_like(cone.grid, z, per_frame ? cone.frames + 1 : 1);
     const std::int64_t z0 = cone.grid.lattice_origin()[2] - z.z_first;
+    const std::size_t slot_words = std::size_t(z.words);
     for (int y = 0; y < cone.grid.dims[1]; ++y)
         for (int x = 0; x < cone.grid.dims[0]; ++x) {
             std::uint32_t* column = c.column(x, y);
-            for (std::int64_t bit = z0 + cone.span(x, y)[0]; bit <= z0 + cone.span(x, y)[1]; ++bit) column[bit / 32] |= 1u << (bit % 32);
+            for (int t = 0; t < cone.frames; ++t) {
+                const auto span = cone.span(x, y, t);
+                for (std::int64_t bit = z0 + span[0]; bit <= z0 + span[1]; ++bit) {
+                    column[bit / 32] |= 1u << (bit % 32);
+                    if (per_frame) column[(1 + std::size_t(t)) * slot_words + std::size_t(bit / 32)] |= 1u << (bit % 32);
+                }
+            }
         }
     c.finish();
     return c;

@@ -20,8 +20,10 @@ struct ZFrame {
     int words = 0;
 };
 
-// The z frame covering every grid given.
-ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids);
+// The z frame covering every grid given, the grids in `raised` lifted by `lift` voxels.
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised = {}, int lift = 0);
+// The same frame as seen from a volume raised by `lift` voxels: its voxel z lands on bit z + lift.
+inline ZFrame raised_frame(const ZFrame& z, int lift) { return {z.z_first - lift, z.words}; }
 
 struct ColumnVolume {
     std::int64_t x0 = 0, y0 = 0;  // global lattice index of column (0, 0)
@@ -49,8 +51,9 @@ struct ColumnVolume {
 
 // Union (and, with `with_frames`, every frame) of `volume`.
 ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames);
-// One slot: the voxels of a view cone.
-ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z);
+// The voxels of a view cone: one slot (the union of its frames), and with `with_frames` and a cone
+// per frame, every frame's cone too.
+ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z, bool with_frames = false);
 // One slot: the voxels of `volume` for which `keep(voxel index)` holds.
 ColumnVolume columns_where(const Amhv& volume, const ZFrame& z, const std::function<bool(std::size_t)>& keep);
 // Union plus, per frame t, the voxels with t_start <= t (`started_by`) or with t_end >= t.

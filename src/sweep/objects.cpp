@@ -50,6 +50,34 @@ Amhv difference(const Amhv& a, const Amhv& b) {
     return out;
 }
 
+Amhv grow_part(const Amhv& part, double radius) {
+    const VoxelGrid& g = part.grid();
+    const double units = radius / g.voxel;
+    if (!(units >= 0) || units > 64) fail("contact_tolerance", "of {} m is {} voxels; at most 64 voxels are allowed", radius, units);
+    // The ball's offsets, by whole voxels: dx^2 + dy^2 + dz^2 <= (radius / h)^2 (centre to centre).
+    const int reach = int(std::floor(units + 1e-9));
+    const std::int64_t r2 = std::int64_t(std::floor(units * units + 1e-9));
+    std::vector<std::array<int, 3>> ball;
+    for (int dz = -reach; dz <= reach; ++dz)
+        for (int dy = -reach; dy <= reach; ++dy)
+            for (int dx = -reach; dx <= reach; ++dx)
+                if (std::int64_t(dx) * dx + std::int64_t(dy) * dy + std::int64_t(dz) * dz <= r2) ball.push_back({dx, dy, dz});
+    Amhv out(g, part.frames());
+    for (int z = 0; z < g.dims[2]; ++z)
+        for (int y = 0; y < g.dims[1]; ++y)
+            for (int x = 0; x < g.dims[0]; ++x) {
+                const std::size_t v = g.index(x, y, z);
+                if (!part.any(v)) continue;
+                for (const auto& [dx, dy, dz] : ball) {
+                    const int tx = x + dx, ty = y + dy, tz = z + dz;
+                    if (tx < 0 || ty < 0 || tz < 0 || tx >= g.dims[0] || ty >= g.dims[1] || tz >= g.dims[2]) continue;
+                    const std::size_t target = g.index(tx, ty, tz);
+                    for (int w = 0; w < part.words(); ++w) out.plane(w)[target] |= part.word(w, v);
+                }
+            }
+    return out;
+}
+
 SweepObject build_sweep_object(const std::string& name, const std::vector<ObjectFrame>& frames, const ObjectParts& parts,
                                double voxel, Voxeliser& voxeliser) {
     if (frames.empty()) fail("object " + name, "has no frames in this key segment");
@@ -68,6 +96,11 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
     }
     SweepObject object;
     object.name = name;
+    // Room for the grown interest part.
+    if (parts.grow_interest > 0 && !bounds.empty()) {
+        bounds.min -= Vec3::Constant(parts.grow_interest);
+        bounds.max += Vec3::Constant(parts.grow_interest);
+    }
     VoxelGrid grid = grid_covering(bounds, voxel, "object " + name);
     {
         // Before any voxel is written: its whole, interest and fidelity volumes, and as much again
@@ -89,6 +122,7 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
         case PartRule::Whole: object.fidelity = object.whole; break;
         case PartRule::WholeMinusInterest: object.fidelity = difference(object.whole, object.interest); break;
     }
+    if (parts.grow_interest > 0) object.interest = grow_part(object.interest, parts.grow_interest);
     object.root = summarise(object.whole).root;
     return object;
 }
@@ -168,6 +202,23 @@ ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double vox
             while (last >= first && !inside(x, y, last)) --last;
             if (first <= last) out.spans[std::size_t(y) * std::size_t(grid.dims[0]) + std::size_t(x)] = {first, last};
         }
+    return out;
+}
+
+ConeVolume view_cone_volumes(const std::vector<ViewCone>& cones, const Box3& region, double voxel) {
+    if (cones.empty()) fail("view cone", "no frames");
+    ConeVolume out = view_cone_volume(cones.front(), region, voxel);
+    out.frames = int(cones.size());
+    {
+        const std::uint64_t bytes = std::uint64_t(out.columns()) * cones.size() * sizeof(out.spans[0]);
+        const budget::Reservation check(bytes, fmt::format("{} per-frame view cones over {} x {} columns", cones.size(), out.grid.dims[0], out.grid.dims[1]),
+                                        "narrow x_range / y_range, give the cones a range, or use a larger voxel");
+    }
+    out.spans.reserve(out.columns() * cones.size());
+    for (std::size_t t = 1; t < cones.size(); ++t) {
+        const ConeVolume frame = view_cone_volume(cones[t], region, voxel);
+        out.spans.insert(out.spans.end(), frame.spans.begin(), frame.spans.end());
+    }
     return out;
 }
 

@@ -33,6 +33,9 @@ struct ObjectParts {
     // whole body is then the union of both.
     bool interest_is_separate = true;
     bool fidelity_is_separate = false;
+    // contact_tolerance (metres): the interest part is grown by a ball of this radius (grow_part)
+    // after the fidelity part is derived from it; the grid gets room for the growth.
+    double grow_interest = 0;
 };
 
 // Voxelises the frames on one grid covering every mesh (edge `voxel`) and derives the parts.
@@ -44,6 +47,10 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
 Amhv restrict_to_box(const Amhv& volume, const Box3& box);
 // Voxel-frames of `a` that are not in `b` (same grid and frames).
 Amhv difference(const Amhv& a, const Amhv& b);
+// The part grown by a ball (docs/method.md section 5a): voxel v is in it at frame t when some voxel
+// of `part` at frame t has its centre within `radius` of v's centre. Growth beyond the grid is lost
+// (build_sweep_object leaves room for it).
+Amhv grow_part(const Amhv& part, double radius);
 
 struct ViewCone {
     Vec3 eye = Vec3::Zero();
@@ -54,5 +61,7 @@ struct ViewCone {
 // The voxels of the lattice of edge `voxel` inside `region` whose centre lies inside the cone.
 // Evaluated once on the host; both sweep backends read the same voxels.
 ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double voxel);
+// One cone per frame (per-frame visibility), on one grid covering `region`.
+ConeVolume view_cone_volumes(const std::vector<ViewCone>& cones, const Box3& region, double voxel);
 
 }  // namespace amhv

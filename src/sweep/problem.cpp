@@ -41,8 +41,9 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
     if (summarise(object.interest).occupied_voxels == 0) fail(what, "its volume of interest is empty in this key segment");
     if (problem.visibility) {
         const VoxelGrid& cone = object.view_cone.grid;
-        if (object.view_cone.empty() || object.view_cone.spans.size() != std::size_t(cone.dims[0]) * std::size_t(cone.dims[1]))
-            fail(what, "visibility is asked for but it has no view cone");
+        const int cones = problem.per_frame_visibility() ? frames : 1;
+        if (object.view_cone.empty() || object.view_cone.frames != cones || object.view_cone.spans.size() != std::size_t(cones) * object.view_cone.columns())
+            fail(what, "visibility is asked for but it has no view cone{}", cones > 1 ? " per frame" : "");
         if (!is_lattice_aligned(cone, problem.voxel)) fail(what, "its view cone grid is not on the lattice");
     }
     if (!(std::abs(object.facing.norm() - 1.0) < 1e-6)) fail(what, "its facing is not a unit vector");
@@ -53,10 +54,11 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
 posemap::Trig SweepProblem::trig(int k) const { return posemap::quantise_rotation(angles::radians(angle_deg(k))); }
 
 Amhv ConeVolume::to_amhv() const {
-    Amhv out(grid, 1);
-    for (int y = 0; y < grid.dims[1]; ++y)
-        for (int x = 0; x < grid.dims[0]; ++x)
-            for (int z = span(x, y)[0]; z <= span(x, y)[1]; ++z) out.set(grid.index(x, y, z), 0);
+    Amhv out(grid, frames);
+    for (int t = 0; t < frames; ++t)
+        for (int y = 0; y < grid.dims[1]; ++y)
+            for (int x = 0; x < grid.dims[0]; ++x)
+                for (int z = span(x, y, t)[0]; z <= span(x, y, t)[1]; ++z) out.set(grid.index(x, y, z), t);
     return out;
 }
 
@@ -79,6 +81,13 @@ void validate(const SweepProblem& problem) {
     if (!(problem.angle_step_deg > 0) || std::abs(problem.range.angles * problem.angle_step_deg - 360.0) > 1e-6)
         fail("sampling.angle_step_deg", "{} angles of {} deg do not make the full circle", problem.range.angles, problem.angle_step_deg);
     if (problem.tolerance < 0) fail("tolerance", "must not be negative");
+    if (problem.contact_frames < 0 || problem.contact_frames > problem.frames())
+        fail("contact_frames", "asks for {} of the segment's {} frames", problem.contact_frames, problem.frames());
+    if (problem.visibility_frames < 0 || problem.visibility_frames > problem.frames())
+        fail("visibility.frames", "asks for {} of the segment's {} frames", problem.visibility_frames, problem.frames());
+    if (problem.range.depth() < 1 || std::abs(problem.range.z_first) > posemap::kMaxLatticeIndex / 2 ||
+        std::abs(problem.range.z_last) > posemap::kMaxLatticeIndex / 2)
+        fail("z_range", "gives no height or one too far from the floor");
     // One outcome byte per pose, and as much again for the candidates of a stage.
     budget::require_memory(2 * problem.range.size(), fmt::format("the sweep's {} poses", problem.range.size()),
                            "narrow x_range / y_range or use a larger angle step");
@@ -142,13 +151,15 @@ std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected) {
     return fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", rejected[0], rejected[1], rejected[2], rejected[3]);
 }
 
-Solution describe(const SweepProblem& problem, int i, int j, int k) {
+Solution describe(const SweepProblem& problem, int i, int j, int k, int l) {
     Solution s;
     s.i = i;
     s.j = j;
     s.k = k;
+    s.l = l;
     s.x = i * problem.voxel;
     s.y = j * problem.voxel;
+    s.z = l * problem.voxel;
     s.theta_deg = angles::wrap_degrees(problem.angle_deg(k));
     s.distance = std::hypot(s.x, s.y);
     if (s.distance > 0) {
@@ -164,10 +175,11 @@ Solution describe(const SweepProblem& problem, int i, int j, int k) {
 std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& result) {
     std::vector<Solution> list;
     const PoseRange& r = result.range;
-    for (int k = 0; k < r.angles; ++k)
-        for (int j = r.j_first; j <= r.j_last; ++j)
-            for (int i = r.i_first; i <= r.i_last; ++i)
-                if (result.at(i, j, k) == PoseOutcome::Solution) list.push_back(describe(problem, i, j, k));
+    for (int l = r.z_first; l <= r.z_last; ++l)
+        for (int k = 0; k < r.angles; ++k)
+            for (int j = r.j_first; j <= r.j_last; ++j)
+                for (int i = r.i_first; i <= r.i_last; ++i)
+                    if (result.at(i, j, k, l) == PoseOutcome::Solution) list.push_back(describe(problem, i, j, k, l));
     return list;
 }
 

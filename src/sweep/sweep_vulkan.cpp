@@ -21,18 +21,32 @@ VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
+// One SweepRun per height of B (z_range), each over every angle; their outcomes follow each other.
 SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     validate(problem);
     stats_ = {};
-    SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress});
-    return run.run();
+    const PoseRange& r = problem.range;
+    SweepResult result;
+    result.range = r;
+    result.outcomes.resize(r.size(), PoseOutcome::FailsContact);
+    for (int level = r.z_first; level <= r.z_last; ++level) {
+        const int done_before = (level - r.z_first) * r.angles;
+        std::function<void(int, int)> level_progress;
+        if (progress) level_progress = [&](int done, int) { progress(done_before + done, r.angles * r.depth()); };
+        SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, level_progress}, level);
+        const SweepResult level_result = run.run();
+        std::copy(level_result.outcomes.begin(), level_result.outcomes.end(),
+                  result.outcomes.begin() + std::ptrdiff_t(std::size_t(level - r.z_first) * r.per_level()));
+    }
+    result.count();
+    return result;
 }
 
 namespace sweep_detail {
 
 SweepResult SweepRun::run() {
     result_.range = range_;
-    result_.outcomes.assign(range_.size(), PoseOutcome::FailsContact);
+    result_.outcomes.assign(range_.per_level(), PoseOutcome::FailsContact);
     if (range_.size() == 0) {
         result_.count();
         return result_;

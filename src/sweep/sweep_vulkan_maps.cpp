@@ -123,7 +123,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
     const int maps = test.maps_per_angle();
     // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
-    const int passes = test.want != Want::EveryFrame ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
+    const int passes = test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
     std::vector<std::uint8_t> open;
     if (candidates) open = *candidates;
@@ -194,7 +194,7 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int
         set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled_.get(), map_words_.get()}));
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
-                               test.want == Want::EveryFrame ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
+                               test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
                                test.pulled_x0};
         tools_.stats.work_items += items;
         sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
@@ -227,8 +227,23 @@ void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& 
     }
 }
 
-// Per pose of the batch, whether it meets the test: EveryFrame, set in every slot's map;
-// otherwise the one map's bit says it.
+namespace {
+
+// Bit i set where at least `needed` of the `maps` words (`stride` apart from `first`) have bit i.
+std::uint32_t frames_at_least(const std::uint32_t* first, int maps, std::size_t stride, int needed) {
+    std::uint32_t out = 0;
+    for (int i = 0; i < 32; ++i) {
+        int count = 0;
+        for (int m = 0; m < maps && count < needed; ++m) count += (first[std::size_t(m) * stride] >> i) & 1u;
+        if (count >= needed) out |= 1u << i;
+    }
+    return out;
+}
+
+}  // namespace
+
+// Per pose of the batch, whether it meets the test: Frames, set in at least `needed` of the slots'
+// maps (in every one when all are needed); otherwise the one map's bit says it.
 std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angles) const {
     const int maps = test.maps_per_angle();
     const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
@@ -240,7 +255,11 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
             const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
             for (int w = 0; w < row_words_; ++w) {
                 std::uint32_t bits = row[w];
-                for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height_) * std::size_t(row_words_) + std::size_t(w)];
+                if (test.want == Want::Frames && test.needed < maps) {
+                    bits = frames_at_least(row + w, maps, std::size_t(height_) * std::size_t(row_words_), test.needed);
+                } else {
+                    for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height_) * std::size_t(row_words_) + std::size_t(w)];
+                }
                 for (int i = w * 32; i < std::min(width_, w * 32 + 32); ++i) out[i] = ((bits >> (i & 31)) & 1u) ? when_set : std::uint8_t(1 - when_set);
             }
         }

@@ -8,13 +8,22 @@
 
 namespace amhv::gpu::sweep_detail {
 
-SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools)
+namespace {
+
+PoseRange level_of(PoseRange range, int level) {
+    range.z_first = range.z_last = level;
+    return range;
+}
+
+}  // namespace
+
+SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, int level)
     : problem_(problem),
       tools_(tools),
       frames_(problem.frames()),
       last_(problem.frames() - 1),
       type_(problem.type),
-      range_(problem.range),
+      range_(level_of(problem.range, level)),
       width_(problem.range.width()),
       height_(problem.range.height()),
       block_(std::max(1, tools.options.block)),
@@ -23,9 +32,10 @@ SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools)
       no_poses_(tools.context, 16, Buffer::Memory::Host) {
     if (frames_ > VulkanSweeper::kMaxFrameWords * 32)
         fail("key segment", "has {} normalised frames; the sweep handles at most {}", frames_, VulkanSweeper::kMaxFrameWords * 32);
-    std::vector<const VoxelGrid*> grids{&problem.a.whole.grid(), &problem.b.whole.grid()};
-    if (problem.visibility) grids.insert(grids.end(), {&problem.a.view_cone.grid, &problem.b.view_cone.grid});
-    z_ = z_frame_covering(grids);
+    std::vector<const VoxelGrid*> grids_a{&problem.a.whole.grid()}, grids_b{&problem.b.whole.grid()};
+    if (problem.visibility) grids_a.push_back(&problem.a.view_cone.grid), grids_b.push_back(&problem.b.view_cone.grid);
+    z_ = z_frame_covering(grids_a, grids_b, level);
+    z_b_ = raised_frame(z_, level);
     plan_stages();
     if (tools_.options.maps) plan_maps();
     root_a_ = problem.root_a_q();
@@ -53,31 +63,36 @@ void SweepRun::plan_stages() {
     const SweepObject& B = problem_.b;
     const bool frames_of_interest = type_.lateral_pair() && (type_.variant == 'a' || type_.variant == 'b');
     interest_a_ = add(columns_of(A.interest, z_, frames_of_interest));
-    interest_b_ = add(columns_of(B.interest, z_, frames_of_interest));
+    interest_b_ = add(columns_of(B.interest, z_b_, frames_of_interest));
     stages_[0].push_back({interest_a_, interest_b_, 0, Want::Overlap});
     const int last = last_, tolerance = problem_.tolerance;
-    auto off_surface = [&](const Amhv& volume, SurfaceLabel label) {
-        return add(columns_where(volume, z_, [&, label](std::size_t v) {
+    auto off_surface = [&](const Amhv& volume, SurfaceLabel label, const ZFrame& z) {
+        return add(columns_where(volume, z, [&, label](std::size_t v) {
             return label == SurfaceLabel::Plus ? volume.t_end(v) < last - tolerance : volume.t_start(v) > tolerance;
         }));
     };
     if (!type_.lateral_pair()) {
-        if (type_.a != SurfaceLabel::Lateral) stages_[1].push_back({off_surface(A.interest, type_.a), interest_b_, 0, Want::NoOverlap});
-        if (type_.b != SurfaceLabel::Lateral) stages_[1].push_back({interest_a_, off_surface(B.interest, type_.b), 0, Want::NoOverlap});
+        if (type_.a != SurfaceLabel::Lateral) stages_[1].push_back({off_surface(A.interest, type_.a, z_), interest_b_, 0, Want::NoOverlap});
+        if (type_.b != SurfaceLabel::Lateral) stages_[1].push_back({interest_a_, off_surface(B.interest, type_.b, z_b_), 0, Want::NoOverlap});
     } else if (type_.variant == 'a') {
-        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::EveryFrame});
+        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::Frames, problem_.touching_frames_needed()});
     } else if (type_.variant == 'b') {
         stages_[1].push_back({interest_a_, interest_b_, frames_, Want::Overlap});
     } else {
         // (c) fails when some contact voxel has t_start^A <= t_end^B, i.e. when for some t the
         // voxels A has reached by t meet the voxels B still occupies at or after t.
-        stages_[1].push_back({add(columns_cumulative(A.interest, z_, true)), add(columns_cumulative(B.interest, z_, false)), frames_,
+        stages_[1].push_back({add(columns_cumulative(A.interest, z_, true)), add(columns_cumulative(B.interest, z_b_, false)), frames_,
                               Want::NoOverlap});
     }
-    stages_[2].push_back({add(columns_of(A.fidelity, z_, true)), add(columns_of(B.fidelity, z_, true)), frames_, Want::NoOverlap});
-    if (problem_.visibility) {
-        stages_[3].push_back({add(columns_of(A.view_cone, z_)), add(columns_of(B.whole, z_, false)), 0, Want::Overlap});
-        stages_[3].push_back({add(columns_of(A.whole, z_, false)), add(columns_of(B.view_cone, z_)), 0, Want::Overlap});
+    stages_[2].push_back({add(columns_of(A.fidelity, z_, true)), add(columns_of(B.fidelity, z_b_, true)), frames_, Want::NoOverlap});
+    if (problem_.per_frame_visibility()) {
+        // Each cone at frame t against the other's body at frame t, on enough frames.
+        const int needed = problem_.visibility_frames;
+        stages_[3].push_back({add(columns_of(A.view_cone, z_, true)), add(columns_of(B.whole, z_b_, true)), frames_, Want::Frames, needed});
+        stages_[3].push_back({add(columns_of(A.whole, z_, true)), add(columns_of(B.view_cone, z_b_, true)), frames_, Want::Frames, needed});
+    } else if (problem_.visibility) {
+        stages_[3].push_back({add(columns_of(A.view_cone, z_)), add(columns_of(B.whole, z_b_, false)), 0, Want::Overlap});
+        stages_[3].push_back({add(columns_of(A.whole, z_, false)), add(columns_of(B.view_cone, z_b_)), 0, Want::Overlap});
     }
 }
 
@@ -88,13 +103,13 @@ void SweepRun::plan_stages() {
 void SweepRun::plan_maps() {
     std::vector<int> every_frame(static_cast<std::size_t>(frames_));
     for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
-    auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want) {
-        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr};
+    auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want, int needed = 0) {
+        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr, needed};
     };
     auto map_of = [&](const OverlapTest& test) {
         std::vector<int> slots{0};
         if (test.frames > 0) slots = every_frame;
-        return map_test(test.fixed->columns, test.moving->columns, slots, test.want);
+        return map_test(test.fixed->columns, test.moving->columns, slots, test.want, test.needed);
     };
     required_maps_[0].push_back(map_of(stages_[0].front()));
     if (!type_.lateral_pair()) {
@@ -102,14 +117,14 @@ void SweepRun::plan_maps() {
         // whole part) meet, since all its contact voxels lie on them. The surfaces are small, so
         // this necessary test is cheap and leaves few poses for the exact ones.
         const int last = last_, tolerance = problem_.tolerance;
-        auto on_surface = [&](const Amhv& volume, SurfaceLabel label, GpuVolume* whole) -> const ColumnVolume& {
+        auto on_surface = [&](const Amhv& volume, SurfaceLabel label, GpuVolume* whole, const ZFrame& z) -> const ColumnVolume& {
             if (label == SurfaceLabel::Lateral) return whole->columns;
-            return add(columns_where(volume, z_, [&, label](std::size_t v) {
+            return add(columns_where(volume, z, [&, label](std::size_t v) {
                        return label == SurfaceLabel::Plus ? volume.t_end(v) >= last - tolerance : volume.t_start(v) <= tolerance;
                    }))->columns;
         };
-        required_maps_[1].push_back(map_test(on_surface(problem_.a.interest, type_.a, interest_a_),
-                                             on_surface(problem_.b.interest, type_.b, interest_b_), {0}, Want::Overlap));
+        required_maps_[1].push_back(map_test(on_surface(problem_.a.interest, type_.a, interest_a_, z_),
+                                             on_surface(problem_.b.interest, type_.b, interest_b_, z_b_), {0}, Want::Overlap));
         for (const OverlapTest& test : stages_[1]) optional_maps_[1].push_back(map_of(test));
     } else if (type_.variant == 'a' || type_.variant == 'b') {
         required_maps_[1].push_back(map_of(stages_[1].front()));
@@ -118,7 +133,7 @@ void SweepRun::plan_maps() {
         // exactly when they meet those B occupies at t itself for some t (take t = t_end^B of the
         // shared voxel); single frames of B give far fewer runs.
         required_maps_[1].push_back(
-            map_test(stages_[1].front().fixed->columns, add(columns_of(problem_.b.interest, z_, true))->columns, every_frame, Want::NoOverlap));
+            map_test(stages_[1].front().fixed->columns, add(columns_of(problem_.b.interest, z_b_, true))->columns, every_frame, Want::NoOverlap));
     }
     for (int stage = 2; stage < 4; ++stage)
         for (const OverlapTest& test : stages_[std::size_t(stage)]) optional_maps_[std::size_t(stage)].push_back(map_of(test));
@@ -162,7 +177,7 @@ void SweepRun::upload_angle_tables() {
         test.moving->angles = upload_to_host(context, table.data(), table.size());
     });
     for_each_test([&](const OverlapTest& test) {
-        if (test.want != Want::EveryFrame) return;
+        if (test.want != Want::Frames) return;
         if (!test.fixed->frame_boxes) {
             const auto& boxes = test.fixed->columns.slot_boxes;
             test.fixed->frame_boxes = upload_to_host(context, boxes.data() + 1, (boxes.size() - 1) * 16);

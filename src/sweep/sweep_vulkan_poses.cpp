@@ -1,6 +1,7 @@
 // Pose-by-pose tests of the Vulkan sweep (shaders/sweep_overlap.comp): work blocks under the loop
 // budget, waves that drop decided poses, and the exact block pre-tests on OR-pooled volumes.
 #include <algorithm>
+#include <bit>
 #include <cstring>
 
 #include "src/core/error.hpp"
@@ -15,7 +16,7 @@ Blocks SweepRun::blocks_of(const OverlapTest& test, int grow) const {
     const int nx = test.fixed->columns.nx + grow, ny = test.fixed->columns.ny + grow;
     // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
     // frame, then give the item as many frames as fit.
-    const bool per_frame = test.want == Want::EveryFrame;
+    const bool per_frame = test.want == Want::Frames;
     const std::uint64_t per_column = per_frame ? std::uint64_t(test.words()) + 2 : std::uint64_t(test.words()) * (1 + test.frames) + 2;
     if (per_column > budget)
         fail("key segment", "one column test needs {} loop iterations, more than the {} one invocation may run; use a larger voxel "
@@ -45,7 +46,7 @@ const std::vector<OverlapTest>& SweepRun::block_stage(int stage) {
         auto [it, added] = pooled_.emplace(test.fixed, nullptr);
         if (added) it->second = add(dilated_columns(test.fixed->columns, block_));
         GpuVolume* volume = it->second;
-        if (test.want == Want::EveryFrame && !volume->frame_boxes) {
+        if (test.want == Want::Frames && !volume->frame_boxes) {
             const auto& boxes = volume->columns.slot_boxes;
             volume->frame_boxes = upload_to_host(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);
         }
@@ -77,8 +78,8 @@ void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* 
     const ColumnVolume& m = test.moving->columns;
     const Blocks b = blocks_of(test);
     const int words = test.flag_words();
-    const bool every_frame = test.want == Want::EveryFrame;
-    const int wave = every_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
+    const bool per_frame = test.want == Want::Frames;
+    const int wave = per_frame ? b.spatial_items : std::max(1, (b.items_per_pose + 3) / 4);
     std::vector<std::uint64_t> live(count);
     for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
     for (int chunk_first = 0; chunk_first < b.items_per_pose && !live.empty(); chunk_first += wave) {
@@ -116,15 +117,23 @@ void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* 
         sequence_.submit_and_wait();
         ++tools_.stats.submits;
         const std::uint32_t* f = flags_->mapped<std::uint32_t>().data();
-        // Frames whose every item has run: a frame among them without overlap decides the pose.
-        const int frames_done = every_frame ? std::min(frames_, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
+        // Frames whose every item has run: more frames among them without overlap than the test
+        // allows decide the pose.
+        const int frames_done = per_frame ? std::min(frames_, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
         std::vector<std::uint64_t> undecided;
         for (std::size_t l = 0; l < live.size(); ++l) {
             std::uint32_t* w = found.data() + live[l] * std::uint64_t(words);
             for (int q = 0; q < words; ++q) w[q] |= f[l * std::size_t(words) + std::size_t(q)];
             bool decided = false;
-            if (every_frame) {
-                for (int t2 = 0; t2 < frames_done && !decided; ++t2) decided = (w[t2 >> 5] & (1u << (t2 & 31))) == 0;
+            if (per_frame) {
+                // Too many frames without overlap fail it; enough frames with one pass it.
+                int misses = 0, hits = 0;
+                for (int t2 = 0; t2 < frames_; ++t2) {
+                    const bool hit = (w[t2 >> 5] & (1u << (t2 & 31))) != 0;
+                    hits += hit;
+                    misses += !hit && t2 < frames_done;
+                }
+                decided = misses > test.misses_allowed() || hits >= test.needed;
             } else {
                 decided = w[0] != 0;
             }
@@ -152,13 +161,14 @@ Meets SweepRun::run_stage(const std::vector<OverlapTest>& stage, const std::vect
         for (std::uint64_t p = 0; p < count; ++p) {
             const std::uint32_t* w = found.data() + p * std::uint64_t(words);
             bool ok;
-            if (test.want == Want::EveryFrame) {
-                ok = true;
+            if (test.want == Want::Frames) {
+                int frames_found = 0;
                 for (int q = 0; q < words; ++q) {
                     int bits = std::min(32, frames_ - q * 32);
                     std::uint32_t all = bits == 32 ? 0xffffffffu : ((1u << bits) - 1u);
-                    ok = ok && (w[q] & all) == all;
+                    frames_found += std::popcount(w[q] & all);
                 }
+                ok = frames_found >= test.needed;
             } else {
                 ok = (w[0] != 0) == (test.want == Want::Overlap);
             }

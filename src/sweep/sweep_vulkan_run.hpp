@@ -64,7 +64,8 @@ struct GpuAngle {
 };
 static_assert(sizeof(GpuAngle) == 32);
 
-constexpr std::int32_t kModeAny = 0, kModePerFrame = 1;
+// MODE_PER_FRAME_ALL stops an item at the first frame without overlap (every frame is needed).
+constexpr std::int32_t kModeAny = 0, kModePerFrameAll = 1, kModePerFrame = 2;
 
 // A column volume; uploaded when a pose-by-pose test first reads it (overlap maps read slice runs
 // instead), and its angle table (used when it is the moving side) on demand.
@@ -74,19 +75,22 @@ struct GpuVolume {
     std::unique_ptr<Buffer> frame_boxes, angle_frame_boxes;  // PER_FRAME tests only
 };
 
-enum class Want { Overlap, NoOverlap, EveryFrame };
+enum class Want { Overlap, NoOverlap, Frames };
 
 struct OverlapTest {
     GpuVolume* fixed;   // A's side: its columns are visited
     GpuVolume* moving;  // B's side: pulled under A's columns
     int frames;         // 0: unions only
     Want want;
-    std::int32_t mode() const { return want == Want::EveryFrame ? kModePerFrame : kModeAny; }
+    int needed = 0;     // Frames: the overlap must show on at least this many frames
+    std::int32_t mode() const { return want != Want::Frames ? kModeAny : needed >= frames ? kModePerFrameAll : kModePerFrame; }
+    // Frames: misses that decide the test (a pose with more fails).
+    int misses_allowed() const { return frames - needed; }
     // The z words where both volumes have bits (first > last: the test cannot find an overlap).
     int word_first() const { return std::max(fixed->columns.word_first, moving->columns.word_first); }
     int word_last() const { return std::min(fixed->columns.word_last, moving->columns.word_last); }
     int words() const { return std::max(0, word_last() - word_first() + 1); }
-    int flag_words() const { return want == Want::EveryFrame ? (frames + 31) / 32 : 1; }
+    int flag_words() const { return want == Want::Frames ? (frames + 31) / 32 : 1; }
 };
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
@@ -95,12 +99,13 @@ struct MapTest {
     const ColumnVolume* fixed;
     const ColumnVolume* moving;
     std::vector<int> slots;
-    Want want;  // Overlap: in some slot pair; NoOverlap: in none; EveryFrame: in every one
+    Want want;  // Overlap: in some slot pair; NoOverlap: in none; Frames: in at least `needed`
     FixedRuns runs;
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
-    int maps_per_angle() const { return want == Want::EveryFrame ? int(slots.size()) : 1; }
+    int needed = 0;
+    int maps_per_angle() const { return want == Want::Frames ? int(slots.size()) : 1; }
 };
 
 // Work blocks of one pose test: columns x rows of the fixed volume per invocation, and for
@@ -140,7 +145,9 @@ struct SweepTools {
 
 class SweepRun {
 public:
-    SweepRun(const SweepProblem& problem, SweepTools tools);
+    // The poses of one height: B raised by `level` voxels.
+    SweepRun(const SweepProblem& problem, SweepTools tools, int level);
+    // The outcomes of that height (a result whose range is that one level).
     SweepResult run();
 
 private:
@@ -204,10 +211,10 @@ private:
     SweepTools tools_;
     const int frames_, last_;
     const InteractionType type_;
-    const PoseRange& range_;
+    const PoseRange range_;  // the problem's, cut to the one level
     const int width_, height_, block_;
     const std::uint64_t per_angle_;
-    ZFrame z_;
+    ZFrame z_, z_b_;  // B's volumes are raised by the level: they see the z frame as z_b_
     std::array<std::int64_t, 2> root_a_{}, root_b_{};
     std::vector<posemap::Trig> trig_;
 
