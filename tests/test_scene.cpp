@@ -15,6 +15,7 @@
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
 #include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -78,6 +79,74 @@ TEST(Scene, CheckPrintsTheResolvedScene) {
     EXPECT_EQ(result.exit_code, 0) << result.output;
     for (const char* expected : {"normalised_frames = 10", "type = '0&0b'", "half_angle_deg = 40", "parts_except = [ 'hand' ]", "angles = 12"})
         EXPECT_NE(result.output.find(expected), std::string::npos) << expected << "\n" << result.output;
+}
+
+// Signed volume of a closed mesh (divergence theorem): positive when the faces wind outward.
+double signed_volume(const TriangleMesh& mesh) {
+    double v = 0;
+    for (const auto& t : mesh.triangles) v += mesh.vertices[t[0]].dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]])) / 6;
+    return v;
+}
+
+// A capture in a left-handed, y-up frame (x right, y up, z away) and 0.3 m above its floor:
+// `axes = "x,z,y"` (a reflection) brings it into the scene with outward faces, and floor = "auto"
+// or floor = 0.3 puts its lowest points at z = 0. `amhv check` says what auto found.
+TEST(Scene, AxesAndFloorBringACaptureIntoTheScene) {
+    test::TempDir dir;
+    const fs::path root = dir.path();
+    fs::create_directories(root / "m");
+    // In scene terms: a box from (0.1, 0.2, 0.3) to (0.5, 0.4, 1.3), and a tilted capsule; written
+    // in the file's frame (file x = x, file y = z, file z = y).
+    TriangleMesh scene_mesh = shapes::box(Vec3(0.1, 0.2, 0.3), Vec3(0.5, 0.4, 1.3));
+    scene_mesh.append(shapes::capsule(Vec3(0.3, 0.3, 1.4), Vec3(0.6, 0.5, 1.7), 0.05, 3, 8));
+    TriangleMesh file_mesh = scene_mesh;
+    for (Vec3& v : file_mesh.vertices) v = Vec3(v.x(), v.z(), v.y());
+    for (auto& t : file_mesh.triangles) std::swap(t[1], t[2]);  // the mirrored file's own outward winding
+    for (int f = 0; f < 4; ++f) write_obj(root / "m" / fmt::format("{:04d}.obj", f), file_mesh);
+
+    UnitsAndAxes units;
+    units.axes = parse_axes("x,z,y", "test");
+    EXPECT_TRUE(units.axes->reflects());
+    EXPECT_FALSE(parse_axes("x,-z,y", "test").reflects());
+    EXPECT_EQ(units.axes->describe(), "x,z,y");
+    EXPECT_THROW(parse_axes("x,x,y", "test"), Error);
+    EXPECT_THROW(parse_axes("x,y", "test"), Error);
+    const TriangleMesh read = read_mesh(root / "m/0000.obj", units);
+    EXPECT_GT(signed_volume(read), 0.07);
+    EXPECT_NEAR(signed_volume(read), signed_volume(scene_mesh), 1e-6);  // OBJ text keeps about 6 digits
+    for (std::size_t i = 0; i < read.vertices.size(); ++i) EXPECT_NEAR((read.vertices[i] - scene_mesh.vertices[i]).norm(), 0, 1e-6);
+
+    for (const char* floor : {"\"auto\"", "0.3"}) {
+        std::ofstream(root / "scene.toml") << fmt::format(R"([sampling]
+voxel = 0.05
+angle_step_deg = 90
+[objects.A]
+meshes = "m/%04d.obj"
+axes = "x,z,y"
+floor = {0}
+[objects.B]
+meshes = "m/%04d.obj"
+axes = "x,z,y"
+floor = {0}
+[[segments]]
+a = [0, 3]
+b = [0, 3]
+type = "0&0b"
+)",
+                                                          floor);
+        const Scene scene = load_scene(root / "scene.toml");
+        ObjectSource a(scene.a);
+        double low = 1e9;
+        for (const BodyPart& part : a.frame_parts(2))
+            for (const Vec3& v : part.mesh.vertices) low = std::min(low, v.z());
+        EXPECT_NEAR(low, 0.0, 1e-6) << floor;
+        auto check = test::run_amhv(fmt::format("check '{}'", (root / "scene.toml").string()));
+        EXPECT_EQ(check.exit_code, 0) << check.output;
+        EXPECT_NE(check.output.find("axes = 'x,z,y'"), std::string::npos) << check.output;
+        if (std::string(floor) == "0.3") continue;
+        EXPECT_NE(check.output.find("# object A: floor = \"auto\" found 0.3000 m (5th percentile of the lowest points of 4 frames"), std::string::npos)
+            << check.output;
+    }
 }
 
 TEST(Scene, ShippedExampleIsValid) {

@@ -78,7 +78,7 @@ std::vector<std::string> body_part_names(const BvhMotion& motion) {
 
 std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
     auto global = motion.global_transforms(frame);
-    auto world = [&](std::size_t j) { return to_z_up(global[j].translation() * options.units.metres_per_unit, options.units.up); };
+    auto world = [&](std::size_t j) { return to_scene_point(global[j].translation(), options.units); };
     std::vector<BodyPart> parts;
     auto part_mesh = [&](const std::string& name) -> TriangleMesh& {
         for (auto& p : parts)
@@ -135,17 +135,16 @@ std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonB
     int head_end = -1;
     for (std::size_t j = 0; j < motion.joints.size(); ++j)
         if (motion.joints[j].parent == int(head)) head_end = int(j);
-    // The file's axes to z up, as a rotation.
+    // The file's axes to the scene's, as a matrix (a rotation, or a reflection for a mirrored file).
     Eigen::Matrix3d axes;
-    for (int c = 0; c < 3; ++c) axes.col(c) = to_z_up(Vec3::Unit(c), options.units.up);
-    const double scale = options.units.metres_per_unit;
+    for (int c = 0; c < 3; ++c) axes.col(c) = to_scene_direction(Vec3::Unit(c), options.units);
 
     std::vector<TrackSample> track(std::size_t(motion.frame_count));
     std::vector<Eigen::Matrix3d> head_rotation(track.size());
     Vec3 head_local_forward = Vec3::Zero();
     for (int f = 0; f < motion.frame_count; ++f) {
         auto g = motion.global_transforms(f);
-        auto at = [&](std::size_t j) { return Vec3(axes * g[j].translation() * scale); };
+        auto at = [&](std::size_t j) { return to_scene_point(g[j].translation(), options.units); };
         // Facing from hips and shoulders: forward = left x up.
         Vec3 left = (at(left_arm) - at(right_arm)) + (at(left_leg) - at(right_leg));
         Vec3 forward(left.y(), -left.x(), 0);

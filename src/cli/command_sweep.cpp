@@ -26,6 +26,8 @@ void run_check(const std::string& file) {
     // The objects' takes and tracks too: a scene whose files are broken is not valid.
     ObjectSource a(scene.a), b(scene.b);
     std::cout << resolved_toml(scene);
+    for (const ObjectSource* o : {&a, &b})
+        if (!o->floor_note().empty()) std::cout << "# " << o->floor_note() << '\n';
 }
 
 void run_sweep(const SweepArguments& args) {

@@ -12,6 +12,8 @@
 #include <regex>
 #include <sstream>
 
+#include <Eigen/LU>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "src/core/error.hpp"
@@ -40,14 +42,55 @@ UpAxis parse_up_axis(const std::string& text, const std::string& what) {
     fail(what, "up axis '{}' is not x, y or z", text);
 }
 
-Vec3 to_z_up(const Vec3& p, UpAxis up) {
-    switch (up) {
-        case UpAxis::Z: return p;
-        case UpAxis::Y: return {p.x(), -p.z(), p.y()};  // +90 degrees about x: y becomes z
-        case UpAxis::X: return {p.y(), p.z(), p.x()};   // cyclic: x becomes z
-    }
-    return p;
+bool AxisMap::reflects() const {
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    for (int c = 0; c < 3; ++c) m(c, source[std::size_t(c)]) = sign[std::size_t(c)];
+    return m.determinant() < 0;
 }
+
+std::string AxisMap::describe() const {
+    std::string out;
+    for (int c = 0; c < 3; ++c) out += fmt::format("{}{}{}", c ? "," : "", sign[std::size_t(c)] < 0 ? "-" : "", "xyz"[source[std::size_t(c)]]);
+    return out;
+}
+
+AxisMap axis_map_of(UpAxis up) {
+    switch (up) {
+        case UpAxis::Y: return {{0, 2, 1}, {1, -1, 1}};  // +90 degrees about x: y becomes z
+        case UpAxis::X: return {{1, 2, 0}, {1, 1, 1}};   // cyclic: x becomes z
+        default: return {};
+    }
+}
+
+AxisMap parse_axes(const std::string& text, const std::string& what) {
+    AxisMap map;
+    std::array<bool, 3> used{};
+    std::size_t at = 0;
+    bool ok = true;
+    for (int c = 0; c < 3 && ok; ++c) {
+        const std::size_t comma = c < 2 ? text.find(',', at) : text.size();
+        std::string item = comma == std::string::npos ? std::string() : text.substr(at, comma - at);
+        item.erase(std::remove(item.begin(), item.end(), ' '), item.end());
+        int sign = 1;
+        if (!item.empty() && (item[0] == '-' || item[0] == '+')) sign = item[0] == '-' ? -1 : 1, item.erase(0, 1);
+        ok = comma != std::string::npos && item.size() == 1 && item[0] >= 'x' && item[0] <= 'z' && !used[std::size_t(item[0] - 'x')];
+        if (!ok) break;
+        used[std::size_t(item[0] - 'x')] = true;
+        map.source[std::size_t(c)] = item[0] - 'x';
+        map.sign[std::size_t(c)] = sign;
+        at = comma + 1;
+    }
+    if (!ok) fail(what, "'{}' is not three signed file axes for the scene's x, y, z, each axis once (e.g. \"x,-z,y\")", text);
+    return map;
+}
+
+Vec3 to_scene_point(const Vec3& p, const UnitsAndAxes& units) {
+    Vec3 v = units.map().apply(p * units.metres_per_unit);
+    v.z() += units.lift;
+    return v;
+}
+
+Vec3 to_scene_direction(const Vec3& v, const UnitsAndAxes& units) { return units.map().apply(v); }
 
 FrameRange parse_frame_range(const std::string& text, const std::string& what) {
     auto colon = text.find(':');
@@ -366,7 +409,7 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
         Vec3 v(p[0], p[1], p[2]);
         if (!v.allFinite())
             fail(path.string(), "vertex {} has a non-finite coordinate ({}, {}, {})", vh.idx(), p[0], p[1], p[2]);
-        out.vertices.push_back(to_z_up(v * units.metres_per_unit, units.up));
+        out.vertices.push_back(to_scene_point(v, units));
         if (out.vertices.back().cwiseAbs().maxCoeff() > kMaxExtent)
             fail(path.string(), "vertex {} lies {:.3g} m from the origin; amhv takes scenes within {} km of it (is --unit right?)", vh.idx(),
                  out.vertices.back().norm(), kMaxExtent / 1000);
@@ -381,6 +424,9 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
         }
         if (i == 3) out.triangles.push_back(t);
     }
+    // A mirrored file turns outward normals inward: the winding flips back.
+    if (units.map().reflects())
+        for (auto& t : out.triangles) std::swap(t[1], t[2]);
     return out;
 }
 

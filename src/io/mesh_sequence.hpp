@@ -1,6 +1,7 @@
 #pragma once
 // Reading mesh sequences (docs/method.md section 9): a folder of frames sorted naturally, or a
 // printf-style pattern; OBJ, PLY, OFF and STL through OpenMesh; converted once to metres, z up.
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -12,16 +13,36 @@ namespace amhv {
 
 enum class UpAxis { X, Y, Z };
 
+// A signed permutation from a file's axes to the scene's: scene axis c is sign[c] times file axis
+// source[c]. It may be a reflection (a left-handed file): mesh readers then flip the triangles'
+// winding so that solids stay solid.
+struct AxisMap {
+    std::array<int, 3> source{0, 1, 2};
+    std::array<int, 3> sign{1, 1, 1};
+    bool reflects() const;
+    Vec3 apply(const Vec3& v) const { return {sign[0] * v[source[0]], sign[1] * v[source[1]], sign[2] * v[source[2]]}; }
+    std::string describe() const;  // "x,-z,y"
+};
+// The map `up` stands for: the file's up axis becomes z, right-handedness kept.
+AxisMap axis_map_of(UpAxis up);
+// "x,-z,y": three signed axis names, each file axis once. Throws amhv::Error naming `what`.
+AxisMap parse_axes(const std::string& text, const std::string& what);
+
 struct UnitsAndAxes {
     double metres_per_unit = 1.0;
     UpAxis up = UpAxis::Z;
+    std::optional<AxisMap> axes;  // when given, replaces `up`
+    double lift = 0;              // metres added to z after the axes (the floor at z = 0)
+    AxisMap map() const { return axes ? *axes : axis_map_of(up); }
 };
 
 // "m", "cm", "mm", "in", "ft" or a positive number of metres per unit.
 double parse_unit(const std::string& text, const std::string& what);
 UpAxis parse_up_axis(const std::string& text, const std::string& what);
-// Input coordinates (after scaling) to the z-up world; right-handedness is kept.
-Vec3 to_z_up(const Vec3& p, UpAxis up);
+// A point in the file's units and axes to the scene: scaled, mapped, lifted.
+Vec3 to_scene_point(const Vec3& p, const UnitsAndAxes& units);
+// A direction in the file's axes to the scene's (not scaled, not lifted).
+Vec3 to_scene_direction(const Vec3& v, const UnitsAndAxes& units);
 
 struct FrameRange {
     int first = 0;

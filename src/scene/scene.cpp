@@ -146,6 +146,20 @@ std::string resolve(const fs::path& scene_file, const std::string& path) {
     return p.lexically_normal().string();
 }
 
+// floor = "auto" or a height in metres (scene axes): where the capture's floor is, so that it is
+// moved to z = 0.
+void read_floor(TableReader& t, SceneObject& o) {
+    const toml::node* node = t.get("floor");
+    if (!node) return;
+    if (node->is_string()) {
+        if (node->value<std::string>().value() != "auto") t.error("floor", node, "must be \"auto\" or a height in metres");
+        o.floor_auto = true;
+        return;
+    }
+    o.floor_m = t.number("floor", -100, 100);
+    o.units.lift = -*o.floor_m;
+}
+
 SceneObject read_object(TableReader& objects, const std::string& name) {
     TableReader t = objects.table(name, true);
     SceneObject o;
@@ -158,6 +172,11 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     const std::string default_unit = bvh ? "0.0564444" : "m", default_up = bvh ? "y" : "z";
     o.units.metres_per_unit = parse_unit(t.string("unit").value_or(default_unit), t.where("unit", t.get("unit")));
     o.units.up = parse_up_axis(t.string("up").value_or(default_up), t.where("up", t.get("up")));
+    if (auto axes = t.string("axes")) {
+        if (t.has("up")) t.error("axes", t.get("axes"), "give one of 'up' and 'axes' ('up' is shorthand for an axes map)");
+        o.units.axes = parse_axes(*axes, t.where("axes", t.get("axes")));
+    }
+    read_floor(t, o);
     if (auto labels = t.string("labels")) {
         if (bvh) t.error("labels", t.get("labels"), "a BVH body already has part labels (head, torso, left_hand, ...)");
         o.labels = resolve(t.file(), *labels);
@@ -469,7 +488,10 @@ std::string resolved_toml(const Scene& scene) {
         if (!o->meshes.empty()) t.insert("meshes", o->meshes);
         if (!o->bvh.empty()) t.insert("bvh", o->bvh);
         t.insert("unit", o->units.metres_per_unit);
-        t.insert("up", std::string(1, "xyz"[int(o->units.up)]));
+        if (o->units.axes) t.insert("axes", o->units.axes->describe());
+        else t.insert("up", std::string(1, "xyz"[int(o->units.up)]));
+        if (o->floor_auto) t.insert("floor", "auto");
+        else if (o->floor_m) t.insert("floor", *o->floor_m);
         t.insert("fps", o->fps);
         if (!o->bvh.empty()) t.insert("tpose", std::string(to_string(o->tpose)));
         t.insert("frames", toml::array{o->frame_first, o->frame_last});

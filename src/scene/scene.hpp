@@ -32,7 +32,11 @@ struct SceneObject {
     std::string name;                  // "A" or "B"
     std::string meshes;                // folder or printf pattern (resolved path), or
     std::string bvh;                   // a BVH file: a body built from the bones
-    UnitsAndAxes units;
+    UnitsAndAxes units;                // unit, up / axes, and (floor) the lift that puts the floor at z = 0
+    // floor: a height in the scene's axes (units.lift = -floor), or "auto" (floor_auto: a low
+    // percentile of the frames' lowest points, found when the object's frames are read).
+    std::optional<double> floor_m;
+    bool floor_auto = false;
     double fps = 25;                   // a BVH is resampled to it (default: the file's rate)
     TPose tpose = TPose::Auto;         // BVH: skip or keep frame 0 (resolved from auto when loaded)
     std::string labels;                // optional per-vertex part labels (pattern of text files)

@@ -54,9 +54,9 @@ std::map<int, TrackSample> read_track_csv(const std::string& path, const UnitsAn
             if (!std::isfinite(x)) fail(fmt::format("{}:{}", path, line_number), "non-finite value");
         if (v[0] < 0 || v[0] > 10'000'000 || v[0] != std::floor(v[0]))
             fail(fmt::format("{}:{}", path, line_number), "frame {} is not a whole frame number in 0..10000000", v[0]);
-        Vec3 gaze = to_z_up(Vec3(v[4], v[5], v[6]), units.up);
+        Vec3 gaze = to_scene_direction(Vec3(v[4], v[5], v[6]), units);
         if (gaze.norm() < 1e-12) fail(fmt::format("{}:{}", path, line_number), "the gaze direction is zero");
-        track[int(v[0])] = {to_z_up(Vec3(v[1], v[2], v[3]) * units.metres_per_unit, units.up), gaze.normalized()};
+        track[int(v[0])] = {to_scene_point(Vec3(v[1], v[2], v[3]), units), gaze.normalized()};
     }
     if (track.empty()) fail(path, "the track has no rows");
     return track;
@@ -132,9 +132,40 @@ double reach_from(const Amhv& volume, const Vec3& root) {
 
 }  // namespace
 
+// floor = "auto": the 5th percentile (nearest rank) of each frame's lowest point over the object's
+// frames, so that a few frames where a foot goes through the floor or the capture glitches do
+// not set it. Read with no lift.
+double ObjectSource::find_floor() {
+    std::vector<double> lowest;
+    for (int f = spec_.frame_first; f <= spec_.frame_last; ++f) {
+        double low = std::numeric_limits<double>::infinity();
+        if (motion_) {
+            for (const BodyPart& part : skeleton_body_parts(*motion_, f, body_options_))
+                for (const Vec3& v : part.mesh.vertices) low = std::min(low, v.z());
+        } else {
+            for (const Vec3& v : read_mesh(frame_file(spec_.meshes, f), spec_.units).vertices) low = std::min(low, v.z());
+        }
+        if (std::isfinite(low)) lowest.push_back(low);
+    }
+    if (lowest.empty()) fail("object " + spec_.name, "floor = \"auto\" found no vertex in its frames");
+    std::vector<double> sorted = lowest;
+    std::sort(sorted.begin(), sorted.end());
+    const double floor = sorted[std::size_t(std::floor(0.05 * double(sorted.size() - 1)))];
+    floor_note_ = fmt::format("object {}: floor = \"auto\" found {:.4f} m (5th percentile of the lowest points of {} frames; lowest {:.4f} m, "
+                              "median {:.4f} m); the capture is moved by {:.4f} m",
+                              spec_.name, floor, sorted.size(), sorted.front(), sorted[sorted.size() / 2], -floor);
+    return floor;
+}
+
 ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
     if (!spec_.bvh.empty()) {
         motion_ = load_bvh(spec_.bvh, BvhLoadOptions{spec_.tpose, spec_.fps});
+        body_options_.units = spec_.units;
+    }
+    if (spec_.floor_auto) {
+        spec_.units.lift = -find_floor();
+    }
+    if (motion_) {
         body_options_.units = spec_.units;
         auto samples = skeleton_track(*motion_, body_options_);
         for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];

@@ -25,8 +25,14 @@ public:
     const MeshFrame& part_frame(const std::string& meshes, int number);
     // Every part name the object's labels use (empty without labels).
     const std::vector<std::string>& label_names() const { return label_names_; }
+    // What floor = "auto" found (empty otherwise), for `amhv check`.
+    const std::string& floor_note() const { return floor_note_; }
+    // The lift the object's frames get (-floor).
+    double lift() const { return spec_.units.lift; }
 
 private:
+    double find_floor();
+    std::string floor_note_;
     SceneObject spec_;
     std::optional<BvhMotion> motion_;
     SkeletonBodyOptions body_options_;
