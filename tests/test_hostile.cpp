@@ -4,6 +4,8 @@
 // and what is wrong, no crash, no hang, no output folder. docs/scenes.md, "What amhv refuses".
 #include <cstdio>
 #include <fstream>
+#include <random>
+#include <set>
 #include <sstream>
 #include <regex>
 
@@ -401,6 +403,64 @@ TEST(Intent, LimitsRejectAndCount) {
         EXPECT_LE(distance, 0.6);
     }
     EXPECT_EQ(count, kept);
+}
+
+// `amhv probe` decides as the sweep: on random poses of the range and on rows of the group, its
+// verdict is membership in solutions.csv. An empty group has near misses in result.json.
+TEST(Probe, VerdictIsMembershipInTheGroup) {
+    test::TempDir tmp;
+    const fs::path d = tmp.path();
+    const std::string empty_scene = scene_with("type = \"0&0a\"", "type = \"0&0a\"\nlimits = { distance_m = [0.0, 0.01] }\nvisibility = { enabled = true, half_angle_deg = 1.0 }");
+    sweep_scenes(d, {{"scene", kScene}, {"narrow", empty_scene}});
+    const auto segment = nlohmann::json::parse(test::read_text(d / "scene" / "result.json"))["segments"][0];
+    std::set<std::string> group;
+    std::istringstream rows(test::read_text(d / "scene" / "segment_1" / "solutions.csv"));
+    std::string line;
+    std::getline(rows, line);
+    std::vector<std::string> poses;
+    while (std::getline(rows, line)) {
+        std::istringstream fields(line);
+        std::string x, y, z, theta;
+        std::getline(fields, x, ',');
+        std::getline(fields, y, ',');
+        std::getline(fields, z, ',');
+        std::getline(fields, theta, ',');
+        group.insert(fmt::format("{},{},{},{}", std::stod(x), std::stod(y), std::stod(theta), std::stod(z)));
+        if (poses.size() < 4) poses.push_back(*group.rbegin());
+    }
+    ASSERT_GT(group.size(), 3u);
+    std::mt19937 random(5);
+    const auto x_m = segment["range"]["x_m"], y_m = segment["range"]["y_m"];
+    for (int n = 0; n < 8; ++n) {
+        const int i = std::uniform_int_distribution<int>(int(std::lround(x_m[0].get<double>() / 0.04)), int(std::lround(x_m[1].get<double>() / 0.04)))(random);
+        const int j = std::uniform_int_distribution<int>(int(std::lround(y_m[0].get<double>() / 0.04)), int(std::lround(y_m[1].get<double>() / 0.04)))(random);
+        poses.push_back(fmt::format("{},{},{},{}", i * 0.04, j * 0.04, 30.0 * (n % 12), 0.0));
+    }
+    int solutions = 0;
+    for (const std::string& pose : poses) {
+        auto probe = test::run_amhv(fmt::format("probe '{}/scene.toml' --segment 1 --pose {} --json --backend cpu", d.string(), pose));
+        ASSERT_EQ(probe.exit_code, 0) << probe.output;
+        const auto answer = nlohmann::json::parse(probe.output);
+        const auto& p = answer["pose"];
+        const std::string key = fmt::format("{},{},{},{}", p["x"].get<double>(), p["y"].get<double>(), p["theta_deg"].get<double>(), p["z"].get<double>());
+        const bool solution = answer["verdict"] == "solution";
+        solutions += solution;
+        EXPECT_EQ(solution, group.count(key) == 1) << pose << " -> " << key << " " << answer["verdict"];
+        EXPECT_EQ(answer["gap_mm"].size(), 40u);
+    }
+    EXPECT_GE(solutions, 4);
+    auto table = test::run_amhv(fmt::format("probe '{}/scene.toml' --pose {} --backend cpu", d.string(), poses.front()));
+    EXPECT_NE(table.output.find("verdict: a solution"), std::string::npos) << table.output;
+    auto bad = test::run_amhv(fmt::format("probe '{}/scene.toml' --pose 1,2", d.string()));
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output.find("--pose: '1,2' is not X,Y,THETA or X,Y,THETA,Z"), std::string::npos) << bad.output;
+    const auto narrow = nlohmann::json::parse(test::read_text(d / "narrow" / "result.json"))["segments"][0];
+    ASSERT_EQ(narrow["solutions"], 0);
+    ASSERT_TRUE(narrow.contains("near_misses"));
+    ASSERT_GT(narrow["near_misses"].size(), 0u);
+    EXPECT_LE(narrow["near_misses"].size(), 10u);
+    EXPECT_EQ(narrow["near_misses"][0]["fails"], "visibility");
+    EXPECT_EQ(narrow["near_misses"][0]["frames"], 40);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
 #include "src/sweep/sweep_vulkan.hpp"
+#include "host/reference/pose_probe.hpp"
 #include "host/reference/sweep_reference.hpp"
 #include "host/reference/voxelise_reference.hpp"
 #include "src/sweep/column_volume.hpp"
@@ -279,6 +280,24 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
         solutions += both.gpu.solutions;
         visibility_rejections += both.gpu.rejected[3];
         for (const Solution& s : amhv::solutions(problem, both.gpu)) raised_solutions += s.l != 0;
+        // The probe's verdict is the sweep's, on random poses and on every solution.
+        const PoseProber prober(problem);
+        const PoseRange& r = problem.range;
+        std::uniform_int_distribution<int> pick_i(r.i_first, r.i_last), pick_j(r.j_first, r.j_last), pick_k(0, r.angles - 1),
+            pick_l(r.z_first, r.z_last);
+        for (int n = 0; n < 30; ++n) {
+            const int i = pick_i(random), j = pick_j(random), k = pick_k(random), l = pick_l(random);
+            EXPECT_EQ(prober.probe(i, j, k, l, false).outcome, both.reference.at(i, j, k, l)) << i << " " << j << " " << k << " " << l;
+        }
+        for (const Solution& s : amhv::solutions(problem, both.gpu)) {
+            const PoseProbe probe = prober.probe(s.i, s.j, s.k, s.l, true);
+            EXPECT_EQ(probe.outcome, PoseOutcome::Solution);
+            EXPECT_TRUE(probe.failed_frames().empty());
+            if (problem.type.variant == 'b') {
+                EXPECT_TRUE(std::any_of(probe.gap_m.begin(), probe.gap_m.end(), [](double g) { return g == 0; }));
+            }
+            break;
+        }
     }
     EXPECT_GT(solutions, 0u);
     EXPECT_GT(visibility_rejections, 0u);

@@ -13,6 +13,7 @@
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
 #include "src/results/solutions_csv.hpp"
+#include "src/pipeline/probe_stage.hpp"
 
 namespace amhv::pipeline {
 
@@ -59,7 +60,7 @@ void report_segment(const KeySegment& segment, const SweepProblem& problem, cons
                     std::size_t solutions, double sweep_seconds) {
     const std::string limits = segment.intent.limits() ? fmt::format(", limits {}", limited) : "";
     if (solutions == 0)
-        std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}{}\n", segment.index, segment.type.name(),
+        std::cout << fmt::format("segment {} ({}): no solution among {} poses; rejected by {}{} (near_misses in result.json; amhv probe says why)\n", segment.index, segment.type.name(),
                                  problem.range.size(), rejection_counts(result.rejected), limits);
     else
         std::cout << fmt::format("segment {} ({}): {} solutions among {} poses ({:.2f} s sweep); rejected by {}{}\n", segment.index,
@@ -132,6 +133,8 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
 
         stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, list, limited, files,
                                                              options.timings ? timings : results::Json(nullptr)));
+        // An empty group says why: the poses that came nearest.
+        if (list.empty()) stage.segments.back()["near_misses"] = near_misses(problem, result);
         stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(list)));
         report_segment(segment, problem, result, limited, stage.sweeps.back().solutions.size(), timings["sweep"].get<double>());
     }

@@ -1,0 +1,58 @@
+#pragma once
+// `amhv probe` and result.json's near misses: one pose of one key segment examined constraint by
+// constraint with the plain CPU reference's mapping (lattice_lookup.hpp), so that its verdict is
+// the sweep's: which constraint rejects the pose, at which frames, by how much.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "src/sweep/problem.hpp"
+
+namespace amhv {
+
+struct PoseProbe {
+    Solution pose;                      // the pose and its descriptors
+    PoseOutcome outcome = PoseOutcome::FailsContact;  // the sweep's: the first constraint failed
+    std::array<bool, 4> passes{};       // contact, dictionary, fidelity, visibility, each on its own
+    std::uint64_t contact_voxels = 0;   // |K|: voxels where the interest unions meet
+    // Dictionary: labelled types and 0&0 (c) count the contact voxels that break the rule; 0&0 (a)
+    // and (b) look at the frames where the parts share a voxel.
+    std::uint64_t dictionary_violations = 0;
+    std::vector<std::uint8_t> touching;  // per frame (0&0 a and b)
+    int touching_needed = 0;
+    std::vector<std::uint64_t> fidelity_voxels;  // per frame: voxels where the fidelity parts overlap
+    // Visibility: one entry for the swept test, one per frame for per-frame visibility.
+    std::vector<std::uint8_t> a_sees_b, b_sees_a;
+    int visibility_needed = 0;
+    // Per frame: the smallest distance between the centres of a voxel of A's interest part and
+    // one of B's (moved), in metres; 0 where they share a voxel. A contact_tolerance of at least
+    // this much (beyond the one swept) makes them touch at that frame. Infinity: a part is empty.
+    std::vector<double> gap_m;
+
+    // The constraint that rejects the pose ("" for a solution) and the frames it fails on (every
+    // frame for the constraints that are not decided frame by frame).
+    std::string failed_constraint() const;
+    std::vector<int> failed_frames() const;
+};
+
+// Examines poses of one problem; the A side's voxel lists are found once.
+class PoseProber {
+public:
+    explicit PoseProber(const SweepProblem& problem);
+    ~PoseProber();
+    // Pose (i h, j h, l h, k dtheta); `gaps`: also the per-frame gaps (the slowest part).
+    PoseProbe probe(int i, int j, int k, int l, bool gaps = true) const;
+
+private:
+    struct Sides;
+    const SweepProblem& problem_;
+    std::unique_ptr<Sides> sides_;
+};
+
+// Names of the constraints in the sweep's order, as messages and result.json use them.
+inline constexpr std::array<const char*, 4> kConstraintNames{"contact", "dictionary", "fidelity", "visibility"};
+
+}  // namespace amhv
