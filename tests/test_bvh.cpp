@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "src/body/skeleton_body.hpp"
+#include "src/body/skeleton_roles.hpp"
 #include "src/core/error.hpp"
 #include "src/io/bvh.hpp"
 #include "src/scene/scene.hpp"
@@ -250,6 +251,64 @@ TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
         EXPECT_EQ(std::count(result.output.begin(), result.output.end(), '\n'), 1) << result.output;  // nothing else either
         EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
         EXPECT_FALSE(fs::exists(out));
+    }
+}
+
+// Joints by role: the 18/19 skeleton keeps its names, the 20/21 one (LeftCollar, LeftShoulder =
+// upper arm, LeftElbow, LeftWrist, lhand, LeftHip, LeftKnee, lowerback, Chest2) maps onto them, and
+// a skeleton that lacks a role says which.
+TEST(SkeletonRoles, MapJointsByRoleAndNameWhatIsMissing) {
+    const BvhMotion cmu18 = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
+    const std::vector<std::string> same = role_names(cmu18);
+    for (std::size_t j = 0; j < cmu18.joints.size(); ++j) EXPECT_EQ(same[j], cmu18.joints[j].name) << j;
+
+    const BvhMotion cmu20 = load_bvh((test::source_dir() / "data/cmu/20_11.bvh").string(), {});
+    EXPECT_EQ(cmu20.first_frame, 0);
+    const std::vector<std::string> roles = role_names(cmu20);
+    auto role = [&](const char* name) { return roles[std::size_t(cmu20.joint_index(name))]; };
+    const std::vector<std::pair<const char*, const char*>> expected{
+        {"Hips", "Hips"},         {"LHipJoint", "LHipJoint"},   {"LeftHip", "LeftUpLeg"},     {"LeftKnee", "LeftLeg"},
+        {"LeftAnkle", "LeftFoot"}, {"LeftToe", "LeftToeBase"},   {"RightKnee", "RightLeg"},    {"lowerback", "LowerBack"},
+        {"Chest", "Spine"},       {"Chest2", "Spine1"},         {"lowerneck", "Neck"},        {"Neck", "Neck1"},
+        {"Head", "Head"},         {"LeftCollar", "LeftShoulder"}, {"LeftShoulder", "LeftArm"}, {"LeftElbow", "LeftForeArm"},
+        {"LeftWrist", "LeftHand"}, {"lhand", "LeftFinger"},     {"LFingers", "LFingers"},     {"LThumb", "LThumb"},
+        {"RightShoulder", "RightArm"}, {"RightWrist", "RightHand"}, {"rhand", "RightFinger"}};
+    for (const auto& [name, expected_role] : expected) EXPECT_EQ(role(name), expected_role) << name;
+    EXPECT_EQ(body_part_names(cmu20), body_part_names());
+
+    // Without an elbow on the left arm (renamed), and without a side in the names of a leg.
+    test::TempDir dir;
+    std::string text = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
+    auto renamed = [&](const std::string& from, const std::string& to) {
+        std::string t = text;
+        for (std::size_t at = t.find(from); at != std::string::npos; at = t.find(from, at + to.size())) t.replace(at, from.size(), to);
+        std::ofstream(dir.path() / "x.bvh", std::ios::binary) << t;
+        return load_bvh((dir.path() / "x.bvh").string(), {});
+    };
+    try {
+        role_names(renamed("JOINT LeftElbow", "JOINT LeftBend"));
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("x.bvh: no joint plays the role of the left elbow (a joint named like LeftElbow or LeftForeArm)"),
+                  std::string::npos)
+            << e.what();
+    }
+    try {
+        role_names(renamed("JOINT Head", "JOINT Top"));
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("no joint plays the role of the head"), std::string::npos) << e.what();
+    }
+    try {
+        BvhMotion m = renamed("JOINT RHipJoint", "JOINT HipJoint2");
+        for (auto& j : m.joints)
+            if (j.name.rfind("Right", 0) == 0 && (j.name.find("Hip") != std::string::npos || j.name.find("Knee") != std::string::npos ||
+                                                   j.name.find("Ankle") != std::string::npos || j.name.find("Toe") != std::string::npos))
+                j.name = "Joint" + j.name.substr(5);
+        role_names(m);
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("does not say whether it is left or right"), std::string::npos) << e.what();
     }
 }
 

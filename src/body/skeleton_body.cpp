@@ -1,6 +1,7 @@
 #include "src/body/skeleton_body.hpp"
 
 #include "src/body/shapes.hpp"
+#include "src/body/skeleton_roles.hpp"
 #include "src/core/error.hpp"
 
 #include <algorithm>
@@ -65,9 +66,10 @@ const std::vector<std::string>& body_part_names() {
 }
 
 std::vector<std::string> body_part_names(const BvhMotion& motion) {
+    const std::vector<std::string> roles = role_names(motion);
     std::vector<std::string> present;
     for (const BvhJoint& joint : motion.joints)
-        if (joint.parent >= 0) present.push_back(body_part(motion.joints[std::size_t(joint.parent)].name));
+        if (joint.parent >= 0) present.push_back(body_part(roles[std::size_t(joint.parent)]));
     std::vector<std::string> names;
     for (const std::string& n : body_part_names())
         if (std::find(present.begin(), present.end(), n) != present.end()) names.push_back(n);
@@ -79,6 +81,7 @@ std::vector<std::string> body_part_names(const BvhMotion& motion) {
 std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
     auto global = motion.global_transforms(frame);
     auto world = [&](std::size_t j) { return to_scene_point(global[j].translation(), options.units); };
+    const std::vector<std::string> names = role_names(motion);  // the joints by role, in one vocabulary
     std::vector<BodyPart> parts;
     auto part_mesh = [&](const std::string& name) -> TriangleMesh& {
         for (auto& p : parts)
@@ -89,7 +92,7 @@ std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, co
     for (std::size_t j = 0; j < motion.joints.size(); ++j) {
         const BvhJoint& joint = motion.joints[j];
         if (joint.parent < 0) continue;
-        const std::string& parent = motion.joints[std::size_t(joint.parent)].name;
+        const std::string& parent = names[std::size_t(joint.parent)];
         Vec3 a = world(std::size_t(joint.parent)), b = world(j);
         if ((b - a).norm() < 1e-4) continue;  // zero-length bones (CMU's hip joints) add nothing
         if (joint.end_site && body_part(parent).ends_with("hand")) {
@@ -97,14 +100,14 @@ std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, co
             // hand reaches kHandLength from the wrist (the thumb kThumbLength). The last bone is
             // extended along its direction so the body's hands are as long as a person's.
             int wrist = joint.parent;
-            while (wrist >= 0 && !motion.joints[std::size_t(wrist)].name.ends_with("Hand")) wrist = motion.joints[std::size_t(wrist)].parent;
+            while (wrist >= 0 && !names[std::size_t(wrist)].ends_with("Hand")) wrist = motion.joints[std::size_t(wrist)].parent;
             if (wrist >= 0) {
                 const double target = contains(parent, "Thumb") ? kThumbLength : kHandLength;
                 const double reach = (b - world(std::size_t(wrist))).norm();
                 if (reach < target) b += (b - a).normalized() * (target - reach);
             }
         }
-        double radius = bone_radius(parent, joint.name);
+        double radius = bone_radius(parent, names[j]);
         TriangleMesh& mesh = part_mesh(body_part(parent));
         if (contains(parent, "Head") && joint.end_site) {
             mesh.append(shapes::sphere((a + b) / 2, radius, options.cap_rings * 2, options.segments));
@@ -125,13 +128,15 @@ TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBod
 }
 
 std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options) {
-    auto find = [&](std::initializer_list<const char*> names) {
-        for (const char* n : names)
-            if (int j = motion.joint_index(n); j >= 0) return std::size_t(j);
-        fail(motion.source, "cannot derive a view track: no joint named {}", *names.begin());
+    // The joints by role (role_names fails, naming the role, when one is missing).
+    const std::vector<std::string> roles = role_names(motion);
+    auto find = [&](const char* role) {
+        const auto at = std::find(roles.begin(), roles.end(), role);
+        if (at == roles.end()) fail(motion.source, "cannot derive a view track: no joint plays the role {}", role);
+        return std::size_t(at - roles.begin());
     };
-    const std::size_t head = find({"Head"}), left_arm = find({"LeftArm", "LeftShoulder"}), right_arm = find({"RightArm", "RightShoulder"});
-    const std::size_t left_leg = find({"LeftUpLeg", "LHipJoint"}), right_leg = find({"RightUpLeg", "RHipJoint"});
+    const std::size_t head = find("Head"), left_arm = find("LeftArm"), right_arm = find("RightArm");
+    const std::size_t left_leg = find("LeftUpLeg"), right_leg = find("RightUpLeg");
     int head_end = -1;
     for (std::size_t j = 0; j < motion.joints.size(); ++j)
         if (motion.joints[j].parent == int(head)) head_end = int(j);
