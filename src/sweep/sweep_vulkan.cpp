@@ -26,6 +26,11 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     validate(problem);
     stats_ = {};
     const PoseRange& r = problem.range;
+    if (r.depth() == 1) {  // one height: the run's outcomes are the result (no second copy)
+        SweepResult result = SweepRun(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress}, r.z_first).run();
+        result.range = r;
+        return result;
+    }
     SweepResult result;
     result.range = r;
     result.outcomes.resize(r.size(), PoseOutcome::FailsContact);
