@@ -422,6 +422,36 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         if (std::string(type) == "0&0b") {
             EXPECT_GT(both.gpu.rejected[2], 0u);
             EXPECT_GT(both.gpu.solutions, 0u);
+            // Per-frame visibility (40 cones a side over the wide base) and a grown part at this
+            // size, whole and in tiny items: a pose's per-frame cone test visits far more than the
+            // loop cap allows one invocation.
+            ObjectParts grown;
+            grown.grow_interest = 0.04;
+            auto seen = problem_of(object_from("A", a, h, grown), B, type, h, 45);
+            const std::array<double, 2> near_x{-0.2, 0.4}, near_y{-0.3, 0.3};
+            narrow_range(seen.range, h, &near_x, &near_y);
+            // A looks ahead for 30 frames (40 degrees), then straight up (10); B looks back at A all along (80).
+            seen.visibility = true;
+            seen.visibility_frames = 30;
+            Box3 region{Vec3(-2.5, -2.5, -0.5), Vec3(2.5, 2.5, 2.5)};
+            std::vector<ViewCone> ahead, back;
+            for (int f = 0; f < frames; ++f) {
+                ahead.push_back({seen.a.root + Vec3(0, 0, 0.5), f < 30 ? Vec3(1, 0, 0) : Vec3(0, 0, 1), f < 30 ? 40.0 : 10.0, 0});
+                back.push_back({seen.b.root + Vec3(0, 0, 0.5), Vec3(-1, 0, 0), 80, 0});
+            }
+            seen.a.view_cone = view_cone_volumes(ahead, region, h);
+            seen.b.view_cone = view_cone_volumes(back, region, h);
+            auto per_frame = sweep_both(seen);
+            expect_identical(per_frame);
+            EXPECT_GT(per_frame.gpu.solutions, 0u);
+            gpu::VulkanSweeper tiny(test::context(), {.loop_budget = 200, .block = 2, .maps = false});
+            EXPECT_EQ(tiny.sweep(seen).outcomes, per_frame.reference.outcomes);
+            test::expect_no_validation_messages();
+            seen.visibility_frames = 31;  // A looks ahead on 30 frames only
+            auto too_many = sweep_both(seen);
+            expect_identical(too_many);
+            EXPECT_EQ(too_many.gpu.solutions, 0u);
+            EXPECT_EQ(too_many.gpu.rejected[3], per_frame.gpu.solutions + per_frame.gpu.rejected[3]);
         }
         if (std::string(type) == "0&0a") {
             EXPECT_GT(both.gpu.rejected[1], 0u);
