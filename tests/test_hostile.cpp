@@ -463,5 +463,43 @@ TEST(Probe, VerdictIsMembershipInTheGroup) {
     EXPECT_EQ(narrow["near_misses"][0]["frames"], 40);
 }
 
+// segment_N/group.vdb opens in OpenVDB's own Python module (Debian's python3-openvdb) and holds
+// exactly the rows of solutions.csv, height by height; its summary counts them per angle.
+TEST(Group, PythonOpenVdbReadsTheCsvRows) {
+    test::TempDir tmp;
+    const fs::path d = tmp.path();
+    sweep_scenes(d, {{"scene", scene_with("type = \"0&0a\"", "type = \"0&0a\"\nz_range = [-0.04, 0.04]")}});
+    const fs::path script = d / "compare.py";
+    std::ofstream(script) << R"(import sys, pyopenvdb as vdb
+folder = sys.argv[1]
+rows = set()
+with open(folder + "/segment_1/solutions.csv") as f:
+    next(f)
+    for line in f:
+        x, y, z, theta = (float(v) for v in line.split(",")[:4])
+        rows.add((round(x / 0.04), round(y / 0.04), round(theta / 30) % 12, round(z / 0.04)))
+poses = set()
+for grid in vdb.readAll(folder + "/segment_1/group.vdb")[0]:
+    level = grid.metadata["z_voxels"]
+    assert grid.metadata["voxel_m"] == 0.04 and grid.metadata["angles"] == 12, grid.metadata
+    for item in grid.citerOnValues():
+        assert item.count == 1
+        i, j, k = item.min
+        poses.add((i, j, k, level))
+print(len(rows), len(poses), rows == poses)
+)";
+    const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+    const auto run = test::run_shell(fmt::format("{} '{}' '{}/scene' 2>&1", python, script.string(), d.string()));
+    const auto summary = nlohmann::json::parse(test::read_text(d / "scene" / "segment_1" / "group_summary.json"));
+    const std::uint64_t count = summary["solutions"];
+    EXPECT_GT(count, 0u);
+    EXPECT_EQ(run.output, fmt::format("{} {} True\n", count, count)) << run.output;
+    std::uint64_t per_angle = 0;
+    for (const auto& a : summary["per_angle"]) per_angle += a["count"].get<std::uint64_t>();
+    EXPECT_EQ(per_angle, count);
+    const auto result = nlohmann::json::parse(test::read_text(d / "scene" / "result.json"));
+    EXPECT_EQ(result["segments"][0]["files"]["group_bytes"].get<std::uint64_t>(), fs::file_size(d / "scene" / "segment_1" / "group.vdb"));
+}
+
 }  // namespace
 }  // namespace amhv

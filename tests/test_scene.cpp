@@ -14,6 +14,7 @@
 
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
+#include "src/results/group_vdb.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 #include "support.hpp"
@@ -180,12 +181,17 @@ TEST(Scene, SweepBackendsAgreeAndRerunsAreByteIdentical) {
     for (const char* constraint : {"contact", "dictionary", "fidelity", "visibility"}) accounted += segment["rejected"][constraint].get<std::uint64_t>();
     EXPECT_EQ(accounted, segment["poses_tested"].get<std::uint64_t>());
 
-    // Byte-identical rerun, feasibility maps included.
+    // Byte-identical rerun, feasibility maps and the group's volume included (amhv replaces the
+    // random UUID OpenVDB stamps on a file with a hash of its content); the group as the CPU
+    // backend found it, read back, is the same set.
     for (const auto& entry : fs::recursive_directory_iterator(out / "vk")) {
         if (!entry.is_regular_file()) continue;
         fs::path twin = out / "vk2" / fs::relative(entry.path(), out / "vk");
         EXPECT_EQ(read_text(entry.path()), read_text(twin)) << entry.path();
     }
+    const results::GroupLattice lattice = results::group_lattice(load_scene(fixture.scene), 1, PoseRange{});
+    EXPECT_EQ(results::read_group_vdb(out / "vk" / "segment_1" / "group.vdb", lattice),
+              results::read_group_vdb(out / "cpu" / "segment_1" / "group.vdb", lattice));
 
     // The maps: one EXR per angle whose `passed` = 4 pixels are exactly the solutions.
     std::uint64_t solution_pixels = 0;

@@ -14,6 +14,7 @@
 #include "host/reference/voxelise_reference.hpp"
 #include "src/sweep/column_volume.hpp"
 #include "src/sweep/objects.hpp"
+#include "src/results/group_vdb.hpp"
 #include "src/sweep/slice_runs.hpp"
 #include "support.hpp"
 
@@ -280,6 +281,19 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
         solutions += both.gpu.solutions;
         visibility_rejections += both.gpu.rejected[3];
         for (const Solution& s : amhv::solutions(problem, both.gpu)) raised_solutions += s.l != 0;
+        // The group as a volume (segment_N/group.vdb) reads back as exactly the set the sweep decided.
+        {
+            const std::vector<Solution> group = amhv::solutions(problem, both.gpu);
+            results::GroupLattice lattice{h, 30, 12, 1, problem.range.z_first, problem.range.z_last, "test"};
+            test::TempDir dir;
+            results::write_group_vdb(dir.path() / "group.vdb", group, lattice);
+            const auto poses = results::read_group_vdb(dir.path() / "group.vdb", lattice);
+            ASSERT_EQ(poses.size(), group.size());
+            for (std::size_t n = 0; n < group.size(); ++n)
+                EXPECT_EQ(poses[n], (std::array<int, 4>{group[n].i, group[n].j, group[n].k, group[n].l})) << n;
+            lattice.scene_hash = "other";
+            EXPECT_THROW(results::read_group_vdb(dir.path() / "group.vdb", lattice), Error);
+        }
         // The probe's verdict is the sweep's, on random poses and on every solution.
         const PoseProber prober(problem);
         const PoseRange& r = problem.range;

@@ -11,7 +11,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenvdb-dev libboost-iostreams-dev
-  python3 universal-ctags time
+  python3 python3-openvdb universal-ctags time
 )
 
 missing=()

@@ -64,7 +64,6 @@ void run_mhv(const MhvArguments& args) {
     Stopwatch clock;
     nlohmann::ordered_json timings;
     if (args.meshes.empty() == args.bvh.empty()) throw Error("mhv: give exactly one of --meshes and --bvh");
-    if (args.vdb && !vdb_available()) throw Error("--vdb: this build of amhv has no OpenVDB support (install libopenvdb-dev and rebuild)");
     if (args.axis.size() != 1 || std::string("xyz").find(args.axis) == std::string::npos)
         throw Error(fmt::format("--axis: '{}' is not x, y or z", args.axis));
 

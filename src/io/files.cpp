@@ -16,4 +16,12 @@ void finish_file(std::ofstream& out, const std::filesystem::path& path) {
     if (!out) fail(path.string(), "could not be written in full (is the disk full?)");
 }
 
+std::string read_file_bytes(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail(path.string(), "cannot open the file");
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) fail(path.string(), "reading the file failed");
+    return bytes;
+}
+
 }  // namespace amhv

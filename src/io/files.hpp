@@ -4,12 +4,16 @@
 // checked only after the close.
 #include <filesystem>
 #include <fstream>
+#include <string>
 #include <string_view>
 
 namespace amhv {
 
 // Writes `bytes` to `path` (replacing it) and checks the write and the close.
 void write_file(const std::filesystem::path& path, std::string_view bytes);
+
+// The whole file; throws amhv::Error naming `path` when it cannot be read.
+std::string read_file_bytes(const std::filesystem::path& path);
 
 // Closes `out` and throws amhv::Error naming `path` if any write to it or the close failed.
 void finish_file(std::ofstream& out, const std::filesystem::path& path);

@@ -2,14 +2,9 @@
 
 #include "src/core/error.hpp"
 
-#ifdef AMHV_HAVE_OPENVDB
 #include <openvdb/openvdb.h>
-#endif
 
 namespace amhv {
-
-#ifdef AMHV_HAVE_OPENVDB
-bool vdb_available() { return true; }
 
 void write_vdb(const Amhv& volume, const std::filesystem::path& path) {
     openvdb::initialize();
@@ -49,12 +44,5 @@ void write_vdb(const Amhv& volume, const std::filesystem::path& path) {
         fail(path.string(), "writing the OpenVDB file failed: {}", e.what());
     }
 }
-#else
-bool vdb_available() { return false; }
-
-void write_vdb(const Amhv&, const std::filesystem::path& path) {
-    fail(path.string(), "this build of amhv has no OpenVDB support (install libopenvdb-dev and rebuild)");
-}
-#endif
 
 }  // namespace amhv

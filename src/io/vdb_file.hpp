@@ -1,13 +1,12 @@
 #pragma once
 // OpenVDB export for Blender and Houdini: float grids `density` (occupied-frame fraction),
-// `t_start` and `t_end` (frames), voxel centres at origin + (i + 1/2) h. Only when built with OpenVDB.
+// `t_start` and `t_end` (frames), voxel centres at origin + (i + 1/2) h.
 #include <filesystem>
 
 #include "src/core/amhv.hpp"
 
 namespace amhv {
 
-bool vdb_available();
 void write_vdb(const Amhv& volume, const std::filesystem::path& path);
 
 }  // namespace amhv

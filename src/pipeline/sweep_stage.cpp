@@ -12,6 +12,7 @@
 #include "src/core/error.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
+#include "src/results/group_vdb.hpp"
 #include "src/results/solutions_csv.hpp"
 #include "src/pipeline/probe_stage.hpp"
 
@@ -125,7 +126,11 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         std::erase_if(list, [&](const Solution& s) { return !within_limits(segment.intent, s); });
         const std::uint64_t limited = before_limits - list.size();
         write_solutions_csv(dir / "solutions.csv", list);
-        const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0};
+        const results::GroupLattice lattice = results::group_lattice(scene, segment.index, problem.range);
+        results::write_group_vdb(dir / "group.vdb", list, lattice);
+        results::write_json_file(dir / "group_summary.json", results::group_summary(list, lattice));
+        const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0,
+                                          std::uint64_t(fs::file_size(dir / "group.vdb"))};
         timings["output"] = seconds_since(t0);
         stage.mhv_seconds += timings["mhv"].get<double>();
         stage.sweep_seconds += timings["sweep"].get<double>();

@@ -192,7 +192,10 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
     s["fidelity"] = {{"A", segment.fidelity_a.describe()}, {"B", segment.fidelity_b.describe()}};
     s["capture"] = capture_keys_json(segment);
     if (segment.intent.limits()) s["limits"] = describe_limits(segment.intent);
-    s["files"] = {{"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
+    s["files"] = {{"group", fmt::format("segment_{}/group.vdb", segment.index)},
+                  {"group_bytes", files.group_bytes},
+                  {"group_summary", fmt::format("segment_{}/group_summary.json", segment.index)},
+                  {"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
                   {"feasibility", files.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
                   {"feasibility_files", files.feasibility_files}};
     if (scene.truth) s["truth"] = truth_json(scene, problem, solutions);

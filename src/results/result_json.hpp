@@ -26,6 +26,7 @@ Json result_header(const Scene& scene, const std::string& backend, const std::st
 struct SegmentFiles {
     bool maps = false;         // feasibility maps written
     int feasibility_files = 0;
+    std::uint64_t group_bytes = 0;  // segment_N/group.vdb
 };
 
 // One key segment's entry after its sweep (`solutions` within the intent's limits, `limited` the
