@@ -1,5 +1,7 @@
 // `amhv probe`: why a pose is (not) a solution of a key segment, constraint by constraint.
+#include <charconv>
 #include <iostream>
+#include <vector>
 
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
@@ -19,25 +21,19 @@ struct ProbeArguments {
 
 // "X,Y,THETA" or "X,Y,THETA,Z": metres and degrees.
 std::array<double, 4> parse_pose(const std::string& text) {
-    std::array<double, 4> out{0, 0, 0, 0};
-    std::size_t at = 0;
-    int count = 0;
-    while (count < 4) {
-        const std::size_t comma = text.find(',', at);
-        const std::string item = text.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
-        std::size_t used = 0;
-        try {
-            out[std::size_t(count)] = std::stod(item, &used);
-        } catch (const std::exception&) {
-            used = 0;
-        }
-        if (used == 0 || used != item.size()) break;
-        ++count;
-        if (comma == std::string::npos) break;
-        at = comma + 1;
-        if (count == 4) count = 5;  // a fifth field
+    std::vector<std::string> items{""};
+    for (char c : text) {
+        if (c == ',') items.emplace_back();
+        else items.back() += c;
     }
-    if (count != 3 && count != 4) fail("--pose", "'{}' is not X,Y,THETA or X,Y,THETA,Z (metres, degrees)", text);
+    std::array<double, 4> out{0, 0, 0, 0};
+    bool ok = items.size() == 3 || items.size() == 4;
+    for (std::size_t n = 0; n < items.size() && ok; ++n) {
+        const std::string& item = items[n];
+        const auto [end, error] = std::from_chars(item.data(), item.data() + item.size(), out[n]);
+        ok = error == std::errc() && end == item.data() + item.size() && !item.empty();
+    }
+    if (!ok) fail("--pose", "'{}' is not X,Y,THETA or X,Y,THETA,Z (metres, degrees)", text);
     return out;
 }
 
