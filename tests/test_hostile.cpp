@@ -482,10 +482,9 @@ poses = set()
 for grid in vdb.readAll(folder + "/segment_1/group.vdb")[0]:
     level = grid.metadata["z_voxels"]
     assert grid.metadata["voxel_m"] == 0.04 and grid.metadata["angles"] == 12, grid.metadata
-    for item in grid.citerOnValues():
-        assert item.count == 1
-        i, j, k = item.min
-        poses.add((i, j, k, level))
+    for item in grid.citerOnValues():  # a voxel, or a tile of a solid block
+        (i0, j0, k0), (i1, j1, k1) = item.min, item.max
+        poses.update((i, j, k, level) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1) for k in range(k0, k1 + 1))
 print(len(rows), len(poses), rows == poses)
 )";
     const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
@@ -499,6 +498,20 @@ print(len(rows), len(poses), rows == poses)
     EXPECT_EQ(per_angle, count);
     const auto result = nlohmann::json::parse(test::read_text(d / "scene" / "result.json"));
     EXPECT_EQ(result["segments"][0]["files"]["group_bytes"].get<std::uint64_t>(), fs::file_size(d / "scene" / "segment_1" / "group.vdb"));
+
+    // `amhv solutions`: the summary, and the CSV export byte for byte the sweep's, never over a file.
+    auto report = test::run_amhv(fmt::format("solutions '{}/scene' --segment 1", d.string()));
+    ASSERT_EQ(report.exit_code, 0) << report.output;
+    EXPECT_NE(report.output.find(fmt::format("key segment 1: {} solutions on the 0.04 m / 30 deg lattice", count)), std::string::npos) << report.output;
+    auto exported = test::run_amhv(fmt::format("solutions '{0}/scene' --csv '{0}/export.csv'", d.string()));
+    ASSERT_EQ(exported.exit_code, 0) << exported.output;
+    EXPECT_EQ(test::read_text(d / "export.csv"), test::read_text(d / "scene" / "segment_1" / "solutions.csv"));
+    auto again = test::run_amhv(fmt::format("solutions '{0}/scene' --csv '{0}/export.csv'", d.string()));
+    EXPECT_EQ(again.exit_code, 1);
+    EXPECT_NE(again.output.find("export.csv: exists: amhv does not overwrite a file it did not create"), std::string::npos) << again.output;
+    auto wrong = test::run_amhv(fmt::format("solutions '{}/scene' --segment 2", d.string()));
+    EXPECT_EQ(wrong.exit_code, 1);
+    EXPECT_NE(wrong.output.find("segment_2/group.vdb: cannot open the solution group"), std::string::npos) << wrong.output;
 }
 
 }  // namespace

@@ -318,6 +318,24 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
     EXPECT_GT(raised_solutions, 0u);
 }
 
+// A solid block of poses is stored as tiles (a few bytes) and reads back pose for pose.
+TEST(Sweep, GroupVdbStoresSolidBlocksAsTilesAndReadsThemBack) {
+    std::vector<Solution> group;
+    for (int l = -1; l <= 1; ++l)
+        for (int k = 0; k < 40; ++k)
+            for (int j = -20; j < 20; ++j)
+                for (int i = 3; i < 43; ++i)
+                    if (l != 1 || (i + j + k) % 7 == 0) group.push_back({i, j, k, l});
+    const results::GroupLattice lattice{0.01, 2, 180, 3, -1, 1, "block"};
+    test::TempDir dir;
+    results::write_group_vdb(dir.path() / "group.vdb", group, lattice);
+    EXPECT_LT(std::filesystem::file_size(dir.path() / "group.vdb"), 2 * group.size());  // the CSV takes about 60 bytes a pose
+    EXPECT_EQ(results::read_group_lattice(dir.path() / "group.vdb").scene_hash, "block");
+    const auto poses = results::read_group_vdb(dir.path() / "group.vdb", lattice);
+    ASSERT_EQ(poses.size(), group.size());
+    for (std::size_t n = 0; n < group.size(); ++n) ASSERT_EQ(poses[n], (std::array<int, 4>{group[n].i, group[n].j, group[n].k, group[n].l})) << n;
+}
+
 // Real hands part: two hands that touch for 7 frames and are 5 cm apart for the last 3. At the
 // true pose 0&0 (a) rejects them; 7 of 10 contact frames or a 7 cm contact tolerance accept them,
 // and 8 frames or a 2 cm tolerance still do not. B's hand is 3 cm lower: z_range finds it raised.

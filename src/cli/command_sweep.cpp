@@ -4,6 +4,7 @@
 
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
+#include "src/pipeline/solutions_export.hpp"
 #include "src/pipeline/sweep_stage.hpp"
 #include "src/core/error.hpp"
 #include "src/io/output_dir.hpp"
@@ -50,9 +51,26 @@ void run_sweep(const SweepArguments& args) {
         throw Error(fmt::format("--require-solutions: key segment {} has no solution", empty_segments.front()));
 }
 
+void run_solutions(const std::string& dir, int segment, const std::string& csv) {
+    const pipeline::GroupRead group = pipeline::read_group(dir, segment);
+    if (csv.empty()) {
+        std::cout << pipeline::group_report(group);
+        return;
+    }
+    pipeline::export_group_csv(group, csv);
+    std::cout << fmt::format("wrote {} ({} solutions)\n", csv, group.solutions.size());
+}
+
 }  // namespace
 
 void add_scene_commands(CLI::App& app) {
+    auto solutions_args = std::make_shared<std::tuple<std::string, int, std::string>>("", 1, "");
+    auto* solutions = app.add_subcommand("solutions", "One key segment's solution group from an output folder (segment_N/group.vdb): a summary, or --csv");
+    solutions->add_option("dir", std::get<0>(*solutions_args), "Output folder of `amhv sweep` or `amhv edit`")->required();
+    solutions->add_option("--segment", std::get<1>(*solutions_args), "Key segment N (1-based; 1)");
+    solutions->add_option("--csv", std::get<2>(*solutions_args), "Write the group as solutions.csv to this file (which must not exist)");
+    solutions->callback([solutions_args] { run_solutions(std::get<0>(*solutions_args), std::get<1>(*solutions_args), std::get<2>(*solutions_args)); });
+
     auto check_file = std::make_shared<std::string>();
     auto* check = app.add_subcommand("check", "Validate a scene file and print it with every default filled in");
     check->add_option("scene", *check_file, "Scene file (TOML)")->required();

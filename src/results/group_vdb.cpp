@@ -1,6 +1,7 @@
 #include "src/results/group_vdb.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 
 #include <fmt/format.h>
@@ -127,16 +128,50 @@ std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path
         if (meta_or_fail<openvdb::StringMetadata, std::string>(*grid, "scene_hash", where) != expected.scene_hash)
             fail(where, "grid {} is the group of another scene (scene_hash differs)", name);
         std::vector<std::array<int, 4>> level;
+        // Solid blocks of 8^3 poses and more are stored as tiles (pruneGrid): their boxes expand.
         for (auto on = grid->cbeginValueOn(); on; ++on) {
-            if (!on.isVoxelValue()) fail(where, "grid {} holds tiles: not written by amhv", name);
-            const openvdb::Coord c = on.getCoord();
-            if (c.z() < 0 || c.z() >= expected.angles) fail(where, "grid {} has a pose at angle index {}, outside 0..{}", name, c.z(), expected.angles - 1);
-            level.push_back({c.x(), c.y(), c.z(), l});
+            const openvdb::CoordBBox box = on.getBoundingBox();
+            if (box.min().z() < 0 || box.max().z() >= expected.angles)
+                fail(where, "grid {} has poses at angle indices {}..{}, outside 0..{}", name, box.min().z(), box.max().z(), expected.angles - 1);
+            for (auto c = box.begin(); c; ++c) level.push_back({(*c).x(), (*c).y(), (*c).z(), l});
         }
         std::sort(level.begin(), level.end(), [](const auto& a, const auto& b) { return std::tie(a[2], a[1], a[0]) < std::tie(b[2], b[1], b[0]); });
         poses.insert(poses.end(), level.begin(), level.end());
     }
     return poses;
+}
+
+GroupLattice read_group_lattice(const std::filesystem::path& path) {
+    openvdb::initialize();
+    const std::string where = path.string();
+    if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
+    openvdb::GridPtrVecPtr grids;
+    try {
+        openvdb::io::File file(where);
+        file.open(false);
+        grids = file.readAllGridMetadata();
+        file.close();
+    } catch (const std::exception& e) {
+        fail(where, "is not a readable OpenVDB file ({})", e.what());
+    }
+    if (grids->empty()) fail(where, "holds no grid: not an amhv solution group");
+    GroupLattice lattice;
+    const openvdb::GridBase& first = *grids->front();
+    lattice.voxel = meta_or_fail<openvdb::DoubleMetadata, double>(first, "voxel_m", where);
+    lattice.angle_step_deg = meta_or_fail<openvdb::DoubleMetadata, double>(first, "angle_step_deg", where);
+    lattice.angles = meta_or_fail<openvdb::Int32Metadata, int>(first, "angles", where);
+    lattice.segment = meta_or_fail<openvdb::Int32Metadata, int>(first, "segment", where);
+    lattice.scene_hash = meta_or_fail<openvdb::StringMetadata, std::string>(first, "scene_hash", where);
+    lattice.z_first = std::numeric_limits<int>::max();
+    lattice.z_last = std::numeric_limits<int>::min();
+    for (const auto& grid : *grids) {
+        const int l = meta_or_fail<openvdb::Int32Metadata, int>(*grid, "z_voxels", where);
+        lattice.z_first = std::min(lattice.z_first, l);
+        lattice.z_last = std::max(lattice.z_last, l);
+    }
+    if (!(lattice.voxel > 0) || lattice.angles < 1 || lattice.z_last - lattice.z_first + 1 != int(grids->size()))
+        fail(where, "its grids do not describe one lattice of heights: not written by amhv");
+    return lattice;
 }
 
 Json group_summary(const std::vector<Solution>& group, const GroupLattice& lattice) {

@@ -37,6 +37,10 @@ void write_group_vdb(const std::filesystem::path& path, const std::vector<Soluti
 // file when it is not a group of `expected` (another lattice, segment or scene, a missing grid).
 std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected);
 
+// The lattice a group file says it is on (its grids' metadata), for readers without the scene.
+// Throws amhv::Error naming the file when it is not an amhv solution group.
+GroupLattice read_group_lattice(const std::filesystem::path& path);
+
 // segment_N/group_summary.json: the count and the bounding box of x and y per angle (angles with
 // members only), the heights, and the total: small for pages and scripts.
 Json group_summary(const std::vector<Solution>& group, const GroupLattice& lattice);
