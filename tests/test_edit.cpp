@@ -87,6 +87,31 @@ Eigen::Vector2d apply(const nlohmann::json& t, const Eigen::Vector2d& p) {
     return Eigen::Rotation2Dd(yaw) * p + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
 }
 
+// B's first vertex in an edited frame's PLY (A's vertices come first; the header says how many).
+Vec3 first_vertex_of_b(const fs::path& ply_file) {
+    const std::string ply = read_text(ply_file);
+    const std::size_t header_end = ply.find("end_header\n") + 11;
+    std::istringstream header(ply.substr(0, header_end));
+    std::string line;
+    std::size_t a_vertices = 0;
+    while (std::getline(header, line))
+        if (line.rfind("comment object B: vertices ", 0) == 0) a_vertices = std::stoul(line.substr(27));
+    EXPECT_GT(a_vertices, 0u);
+    float stored[3];
+    std::memcpy(stored, ply.data() + header_end + a_vertices * 15, sizeof(stored));
+    return Vec3(stored[0], stored[1], stored[2]);
+}
+
+// The first vertex of an OBJ file.
+Vec3 first_obj_vertex(const fs::path& obj_file) {
+    std::ifstream obj(obj_file);
+    std::string tag;
+    double x = 0, y = 0, z = 0;
+    while (obj >> tag && tag != "v") {}
+    obj >> x >> y >> z;
+    return Vec3(x, y, z);
+}
+
 TEST(Edit, TimelineNormalisesEveryPairOfSegments) {
     EditFixture fixture;
     const Timeline t = make_timeline(load_scene(fixture.scene));
@@ -172,25 +197,12 @@ TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
     EXPECT_FALSE(result.contains("timings_s"));
 
     // Frame 20's PLY: B's first vertex is B's source frame 25 vertex 0 moved by B's transform.
-    const std::string ply = read_text(out / "frames/0020.ply");
-    const std::size_t header_end = ply.find("end_header\n") + 11;
-    std::istringstream header(ply.substr(0, header_end));
-    std::string line;
-    std::size_t a_vertices = 0;
-    while (std::getline(header, line))
-        if (line.rfind("comment object B: vertices ", 0) == 0) a_vertices = std::stoul(line.substr(27));
-    ASSERT_GT(a_vertices, 0u);
-    std::ifstream obj(fixture.dir.path() / "b/0025.obj");
-    std::string tag;
-    double x, y, z;
-    while (obj >> tag && tag != "v") {}
-    obj >> x >> y >> z;
-    float stored[3];
-    std::memcpy(stored, ply.data() + header_end + a_vertices * 15, sizeof(stored));
-    const Eigen::Vector2d moved = apply(transforms.at("output").at(20).at("B"), {x, y});
-    EXPECT_NEAR(stored[0], moved.x(), 1e-5);
-    EXPECT_NEAR(stored[1], moved.y(), 1e-5);
-    EXPECT_NEAR(stored[2], z, 1e-5);
+    const Vec3 stored = first_vertex_of_b(out / "frames/0020.ply");
+    const Vec3 source = first_obj_vertex(fixture.dir.path() / "b/0025.obj");
+    const Eigen::Vector2d moved = apply(transforms.at("output").at(20).at("B"), {source.x(), source.y()});
+    EXPECT_NEAR(stored.x(), moved.x(), 1e-5);
+    EXPECT_NEAR(stored.y(), moved.y(), 1e-5);
+    EXPECT_NEAR(stored.z(), source.z(), 1e-5);
 }
 
 // Two captures that disagree on the floor by 15 cm: no planar placement joins the hands; z_range
@@ -226,21 +238,7 @@ TEST(Edit, ZRangeLowersTheHigherCapture) {
         EXPECT_NEAR(frame.at("B").at("matrix")[2][3].get<double>(), z, 1e-12) << k;
     }
     // Frame 20's PLY: B's first vertex is its source vertex lowered by z.
-    const std::string ply = read_text(out / "frames/0020.ply");
-    const std::size_t header_end = ply.find("end_header\n") + 11;
-    std::istringstream header(ply.substr(0, header_end));
-    std::string line;
-    std::size_t a_vertices = 0;
-    while (std::getline(header, line))
-        if (line.rfind("comment object B: vertices ", 0) == 0) a_vertices = std::stoul(line.substr(27));
-    std::ifstream obj(fixture.dir.path() / "b/0025.obj");
-    std::string tag;
-    double x, y, vz;
-    while (obj >> tag && tag != "v") {}
-    obj >> x >> y >> vz;
-    float stored[3];
-    std::memcpy(stored, ply.data() + header_end + a_vertices * 15, sizeof(stored));
-    EXPECT_NEAR(stored[2], vz + z, 1e-5);
+    EXPECT_NEAR(first_vertex_of_b(out / "frames/0020.ply").z(), first_obj_vertex(fixture.dir.path() / "b/0025.obj").z() + z, 1e-5);
 }
 
 TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {

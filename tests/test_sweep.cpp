@@ -75,6 +75,25 @@ void expect_identical(const BothResults& both) {
 
 MeshFrame frame_of(TriangleMesh mesh, int f) { return {std::move(mesh), "frame " + std::to_string(f)}; }
 
+// A random performer: a body that drifts and an arm whose hand (the interest part) moves, over
+// `frames` frames; `hand_heights` varies the hand's starting height too.
+Performer random_performer(std::mt19937& random, int frames, bool hand_heights) {
+    std::uniform_real_distribution<double> u(-1, 1);
+    Performer p;
+    Vec3 body0(u(random) * 0.2, u(random) * 0.2, 0.9), body_v(u(random) * 0.15, u(random) * 0.15, 0);
+    Vec3 hand0 = hand_heights ? Vec3(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2 + 0.1 * u(random)) : Vec3(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2);
+    Vec3 hand_v(u(random) * 0.4, u(random) * 0.4, u(random) * 0.2);
+    for (int f = 0; f < frames; ++f) {
+        double s = double(f) / (frames - 1);
+        Vec3 c = body0 + s * body_v, hand = hand0 + s * hand_v;
+        TriangleMesh body = shapes::capsule(c - Vec3(0, 0, 0.5), c + Vec3(0, 0, 0.5), 0.16, 3, 10);
+        body.append(shapes::capsule(c + Vec3(0, 0, 0.3), hand, 0.05, 2, 8));  // the arm
+        p.body.push_back(frame_of(body, f));
+        p.part.push_back(frame_of(shapes::sphere(hand, 0.07 + 0.03 * std::abs(u(random)), 6, 10), f));
+    }
+    return p;
+}
+
 // Two static spheres of radius r, contact by 0&0 (b): solutions are the offsets with |s| < 2r, at
 // every angle, up to the voxelisation (one voxel either side).
 TEST(Sweep, StaticSpheresTouchWithinTwoRadii) {
@@ -140,21 +159,7 @@ TEST(Sweep, RandomScenesMatchReference) {
     for (int scene = 0; scene < 22; ++scene) {
         const double h = 0.03;
         const int frames = 5 + scene % 7;
-        auto random_performer = [&]() {
-            Performer p;
-            Vec3 body0(u(random) * 0.2, u(random) * 0.2, 0.9), body_v(u(random) * 0.15, u(random) * 0.15, 0);
-            Vec3 hand0(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2), hand_v(u(random) * 0.4, u(random) * 0.4, u(random) * 0.2);
-            for (int f = 0; f < frames; ++f) {
-                double s = double(f) / (frames - 1);
-                Vec3 c = body0 + s * body_v, hand = hand0 + s * hand_v;
-                TriangleMesh body = shapes::capsule(c - Vec3(0, 0, 0.5), c + Vec3(0, 0, 0.5), 0.16, 3, 10);
-                body.append(shapes::capsule(c + Vec3(0, 0, 0.3), hand, 0.05, 2, 8));  // the arm
-                p.body.push_back(frame_of(body, f));
-                p.part.push_back(frame_of(shapes::sphere(hand, 0.07 + 0.03 * std::abs(u(random)), 6, 10), f));
-            }
-            return p;
-        };
-        Performer a = random_performer(), b = random_performer();
+        Performer a = random_performer(random, frames, false), b = random_performer(random, frames, false);
         Eigen::Vector2d fa(u(random), u(random)), fb(u(random), u(random));
         SweepObject A = object_from("A", a, h, {}, fa.normalized()), B = object_from("B", b, h, {}, fb.normalized());
         auto problem = problem_of(A, B, types[scene % 11], h, 30);
@@ -245,21 +250,7 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
     for (int scene = 0; scene < 16; ++scene) {
         const double h = 0.03;
         const int frames = 6 + scene % 5;
-        auto random_performer = [&]() {
-            Performer p;
-            Vec3 body0(u(random) * 0.2, u(random) * 0.2, 0.9), body_v(u(random) * 0.15, u(random) * 0.15, 0);
-            Vec3 hand0(u(random) * 0.2 + 0.35, u(random) * 0.2, 1.2 + 0.1 * u(random)), hand_v(u(random) * 0.4, u(random) * 0.4, u(random) * 0.2);
-            for (int f = 0; f < frames; ++f) {
-                double s = double(f) / (frames - 1);
-                Vec3 c = body0 + s * body_v, hand = hand0 + s * hand_v;
-                TriangleMesh body = shapes::capsule(c - Vec3(0, 0, 0.5), c + Vec3(0, 0, 0.5), 0.16, 3, 10);
-                body.append(shapes::capsule(c + Vec3(0, 0, 0.3), hand, 0.05, 2, 8));
-                p.body.push_back(frame_of(body, f));
-                p.part.push_back(frame_of(shapes::sphere(hand, 0.07 + 0.03 * std::abs(u(random)), 6, 10), f));
-            }
-            return p;
-        };
-        Performer a = random_performer(), b = random_performer();
+        Performer a = random_performer(random, frames, true), b = random_performer(random, frames, true);
         Eigen::Vector2d fa(u(random), u(random)), fb(u(random), u(random));
         auto problem = problem_of(object_from("A", a, h, {}, fa.normalized()), object_from("B", b, h, {}, fb.normalized()), types[scene % 8], h, 30);
         problem.contact_frames = scene % 2 == 0 ? frames - 1 - scene % 3 : 0;

@@ -3,117 +3,37 @@
 #include <algorithm>
 #include <cmath>
 
-#include "host/reference/lattice_lookup.hpp"
+#include "host/reference/pose_checks.hpp"
 #include "src/core/angles.hpp"
 
 namespace amhv {
 
-struct PoseProber::Sides {
-    std::vector<LatticeVoxel> interest, fidelity, whole, cone;
-    Amhv cone_a, cone_b;  // the cones as aMHVs (visibility only)
-    std::unique_ptr<BSide> b;
-};
-
-PoseProber::PoseProber(const SweepProblem& problem) : problem_(problem), sides_(std::make_unique<Sides>()) {
+PoseProber::PoseProber(const SweepProblem& problem) : problem_(problem) {
     validate(problem);
-    Sides& s = *sides_;
-    s.interest = occupied_voxels(problem.a.interest);
-    s.fidelity = occupied_voxels(problem.a.fidelity);
-    s.whole = occupied_voxels(problem.a.whole);
-    if (problem.visibility) {
-        s.cone_a = problem.a.view_cone.to_amhv();
-        s.cone_b = problem.b.view_cone.to_amhv();
-        s.cone = occupied_voxels(s.cone_a);
-    }
-    s.b = std::make_unique<BSide>(BSide{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(s.cone_b)});
+    sides_ = std::make_unique<PoseSides>(problem);
 }
 
 PoseProber::~PoseProber() = default;
 
 namespace {
 
-using Contact = std::vector<std::pair<std::size_t, std::size_t>>;  // (A voxel, B voxel) of K
-
-// The dictionary on the contact voxels (docs/method.md section 5), as the reference decides it.
-void probe_dictionary(const SweepProblem& p, const Contact& contact, PoseProbe& out) {
-    const Amhv& ia = p.a.interest;
-    const Amhv& ib = p.b.interest;
-    const int last = p.frames() - 1;
-    if (!p.type.lateral_pair()) {
-        for (auto [va, vb] : contact)
-            out.dictionary_violations += !satisfies(p.type.a, ia.t_start(va), ia.t_end(va), last, p.tolerance) ||
-                                         !satisfies(p.type.b, ib.t_start(vb), ib.t_end(vb), last, p.tolerance);
-        out.passes[1] = out.dictionary_violations == 0;
-    } else if (p.type.variant == 'a' || p.type.variant == 'b') {
-        out.touching.assign(std::size_t(p.frames()), 0);
-        for (int t = 0; t < p.frames(); ++t)
-            for (auto [va, vb] : contact)
-                if (ia.occupied(va, t) && ib.occupied(vb, t)) {
-                    out.touching[std::size_t(t)] = 1;
-                    break;
-                }
-        const int frames = int(std::count(out.touching.begin(), out.touching.end(), 1));
+// The dictionary on the contact voxels (docs/method.md section 5), with the reference's rules:
+// labelled types and 0&0 (c) count the voxels that break them, 0&0 (a) and (b) the frames.
+void probe_dictionary(const SweepProblem& p, const ContactPairs& contact, PoseProbe& out) {
+    if (p.type.lateral_pair() && p.type.variant != 'c') {
+        out.touching = touching_frames(p, contact);
         out.touching_needed = p.type.variant == 'a' ? p.touching_frames_needed() : 1;
-        out.passes[1] = frames >= out.touching_needed;
-    } else {
-        for (auto [va, vb] : contact) out.dictionary_violations += !(ia.t_start(va) > ib.t_end(vb));
-        out.passes[1] = out.dictionary_violations == 0;
+        out.passes[1] = int(std::count(out.touching.begin(), out.touching.end(), 1)) >= out.touching_needed;
+        return;
     }
+    for (auto [va, vb] : contact) out.dictionary_violations += breaks_rule(p, va, vb);
+    out.passes[1] = out.dictionary_violations == 0;
 }
 
-}  // namespace
-
-PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
-    const SweepProblem& p = problem_;
-    const Sides& s = *sides_;
-    const BSide& b = *s.b;
-    const PoseLookup lookup(p, i, j, k, l);
-    const int frames = p.frames();
-    PoseProbe out;
-    out.pose = describe(p, i, j, k, l);
-
-    Contact contact;
-    for (const LatticeVoxel& u : s.interest)
-        if (auto vb = lookup(b.interest, u); vb && b.interest.any(*vb)) contact.emplace_back(u.index, *vb);
-    out.contact_voxels = contact.size();
-    out.passes[0] = !contact.empty();
-    probe_dictionary(p, contact, out);
-
-    out.fidelity_voxels.assign(std::size_t(frames), 0);
-    for (const LatticeVoxel& u : s.fidelity)
-        if (auto vb = lookup(b.fidelity, u))
-            for (int t = 0; t < frames; ++t) out.fidelity_voxels[std::size_t(t)] += p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t);
-    out.passes[2] = std::all_of(out.fidelity_voxels.begin(), out.fidelity_voxels.end(), [](std::uint64_t n) { return n == 0; });
-
-    out.passes[3] = true;
-    if (p.visibility) {
-        const int cones = p.per_frame_visibility() ? frames : 1;
-        out.a_sees_b.assign(std::size_t(cones), 0);
-        out.b_sees_a.assign(std::size_t(cones), 0);
-        for (int t = 0; t < cones; ++t) {
-            const bool swept = cones == 1;
-            for (const LatticeVoxel& u : s.cone)
-                if (auto vb = lookup(b.whole, u);
-                    vb && (swept ? b.whole.any(*vb) : s.cone_a.occupied(u.index, t) && p.b.whole.occupied(*vb, t))) {
-                    out.a_sees_b[std::size_t(t)] = 1;
-                    break;
-                }
-            for (const LatticeVoxel& u : s.whole)
-                if (auto vb = lookup(b.cone, u); vb && (swept ? b.cone.any(*vb) : p.a.whole.occupied(u.index, t) && s.cone_b.occupied(*vb, t))) {
-                    out.b_sees_a[std::size_t(t)] = 1;
-                    break;
-                }
-        }
-        out.visibility_needed = p.per_frame_visibility() ? p.visibility_frames : 1;
-        const auto count = [](const std::vector<std::uint8_t>& v) { return int(std::count(v.begin(), v.end(), 1)); };
-        out.passes[3] = count(out.a_sees_b) >= out.visibility_needed && count(out.b_sees_a) >= out.visibility_needed;
-    }
-    out.outcome = PoseOutcome::Solution;
-    for (int c = 3; c >= 0; --c)
-        if (!out.passes[std::size_t(c)]) out.outcome = PoseOutcome(c);
-    if (!gaps) return out;
-
-    // B's interest voxels under A's lattice: the columns of a box around where the pose puts them.
+// Per frame, the smallest distance between the centres of a voxel of A's interest part and one of
+// B's at pose (i, j, k, l) (PoseProbe::gap_m). B's voxels under A's lattice are found by pulling
+// the columns of a box around where the pose puts them.
+std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup, int i, int j, int k, int l) {
     const Box3 bounds = summarise(p.b.interest).bounds;
     const double h = p.voxel, theta = angles::radians(p.angle_deg(k));
     const Eigen::Rotation2Dd turn(theta);
@@ -130,10 +50,10 @@ PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
         for (std::int64_t gx = std::int64_t(std::floor(moved.min.x() / h)) - 2; gx <= std::int64_t(std::ceil(moved.max.x() / h)) + 2; ++gx)
             for (std::int64_t gz = z_first; gz <= z_last; ++gz) {
                 const LatticeVoxel u{0, gx, gy, gz};
-                if (auto vb = lookup(b.interest, u); vb && b.interest.any(*vb)) pulled.push_back({u, *vb});
+                if (auto vb = lookup(s.b.interest, u); vb && s.b.interest.any(*vb)) pulled.push_back({u, *vb});
             }
-    out.gap_m.assign(std::size_t(frames), std::numeric_limits<double>::infinity());
-    for (int t = 0; t < frames; ++t) {
+    std::vector<double> gap_m(std::size_t(p.frames()), std::numeric_limits<double>::infinity());
+    for (int t = 0; t < p.frames(); ++t) {
         std::int64_t best = std::numeric_limits<std::int64_t>::max();
         for (const LatticeVoxel& u : s.interest) {
             if (!p.a.interest.occupied(u.index, t)) continue;
@@ -144,8 +64,47 @@ PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
             }
             if (best == 0) break;
         }
-        if (best != std::numeric_limits<std::int64_t>::max()) out.gap_m[std::size_t(t)] = h * std::sqrt(double(best));
+        if (best != std::numeric_limits<std::int64_t>::max()) gap_m[std::size_t(t)] = h * std::sqrt(double(best));
     }
+    return gap_m;
+}
+
+}  // namespace
+
+PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
+    const SweepProblem& p = problem_;
+    const PoseSides& s = *sides_;
+    const BSide& b = s.b;
+    const PoseLookup lookup(p, i, j, k, l);
+    const int frames = p.frames();
+    PoseProbe out;
+    out.pose = describe(p, i, j, k, l);
+
+    const ContactPairs contact = contact_pairs(s, lookup);
+    out.contact_voxels = contact.size();
+    out.passes[0] = !contact.empty();
+    probe_dictionary(p, contact, out);
+
+    out.fidelity_voxels.assign(std::size_t(frames), 0);
+    for (const LatticeVoxel& u : s.fidelity)
+        if (auto vb = lookup(b.fidelity, u))
+            for (int t = 0; t < frames; ++t) out.fidelity_voxels[std::size_t(t)] += p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t);
+    out.passes[2] = std::all_of(out.fidelity_voxels.begin(), out.fidelity_voxels.end(), [](std::uint64_t n) { return n == 0; });
+
+    out.passes[3] = true;
+    if (p.visibility) {
+        Sight seen = sight(p, s, lookup);
+        out.passes[3] = seen.passes(p);
+        out.visibility_needed = p.per_frame_visibility() ? p.visibility_frames : 1;
+        out.a_sees_b = std::move(seen.a_sees_b);
+        out.b_sees_a = std::move(seen.b_sees_a);
+    }
+    out.outcome = PoseOutcome::Solution;
+    for (int c = 3; c >= 0; --c)
+        if (!out.passes[std::size_t(c)]) out.outcome = PoseOutcome(c);
+    if (!gaps) return out;
+
+    out.gap_m = interest_gaps(p, s, lookup, i, j, k, l);
     return out;
 }
 

@@ -13,6 +13,8 @@
 
 namespace amhv {
 
+struct PoseSides;
+
 struct PoseProbe {
     Solution pose;                      // the pose and its descriptors
     PoseOutcome outcome = PoseOutcome::FailsContact;  // the sweep's: the first constraint failed
@@ -47,9 +49,8 @@ public:
     PoseProbe probe(int i, int j, int k, int l, bool gaps = true) const;
 
 private:
-    struct Sides;
     const SweepProblem& problem_;
-    std::unique_ptr<Sides> sides_;
+    std::unique_ptr<PoseSides> sides_;
 };
 
 // Names of the constraints in the sweep's order, as messages and result.json use them.

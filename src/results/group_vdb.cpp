@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
@@ -33,6 +34,29 @@ Value meta_or_fail(const openvdb::GridBase& grid, const char* key, const std::st
     return value->value();
 }
 
+// 64-bit FNV-1a.
+std::uint64_t fnv1a(std::string_view bytes) {
+    std::uint64_t hash = 1469598103934665603ull;
+    for (unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ull;
+    return hash;
+}
+
+// Every grid of `path`, or only their metadata; throws naming the file when it cannot be read.
+openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path, bool metadata_only) {
+    openvdb::initialize();
+    const std::string where = path.string();
+    if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
+    try {
+        openvdb::io::File file(where);
+        file.open(/*delayLoad=*/!metadata_only);
+        openvdb::GridPtrVecPtr grids = metadata_only ? file.readAllGridMetadata() : file.getGrids();
+        file.close();
+        return grids;
+    } catch (const std::exception& e) {
+        fail(where, "is not a readable OpenVDB file ({})", e.what());
+    }
+}
+
 // OpenVDB stamps every file with a random UUID (36 characters at byte 21 of the header), so two
 // writes of one group would differ. The UUID becomes a hash of the file's content after it: same
 // group, same bytes; another group, another id.
@@ -42,12 +66,10 @@ void stamp_content_uuid(const std::filesystem::path& path) {
     const auto dash = [&](std::size_t n) { return bytes[kAt + n] == '-'; };
     if (bytes.size() < kAt + kLength || !dash(8) || !dash(13) || !dash(18) || !dash(23))
         fail(path.string(), "internal: the OpenVDB header does not hold its UUID where expected");
-    std::uint64_t h1 = 1469598103934665603ull, h2 = 0x9e3779b97f4a7c15ull;
-    for (std::size_t n = kAt + kLength; n < bytes.size(); ++n) {
-        const auto c = static_cast<unsigned char>(bytes[n]);
-        h1 = (h1 ^ c) * 1099511628211ull;
-        h2 = (h2 ^ c) * 0x100000001b3ull + 0x632be59bd9b4e019ull;
-    }
+    const std::string_view content = std::string_view(bytes).substr(kAt + kLength);
+    const std::uint64_t h1 = fnv1a(content);
+    std::uint64_t h2 = 0x9e3779b97f4a7c15ull;
+    for (unsigned char c : content) h2 = (h2 ^ c) * 0x100000001b3ull + 0x632be59bd9b4e019ull;
     const std::string hex = fmt::format("{:016x}{:016x}", h1, h2);
     const std::string uuid = hex.substr(0, 8) + "-" + hex.substr(8, 4) + "-" + hex.substr(12, 4) + "-" + hex.substr(16, 4) + "-" + hex.substr(20, 12);
     bytes.replace(kAt, kLength, uuid);
@@ -61,9 +83,7 @@ GroupLattice group_lattice(const Scene& scene, int segment, const PoseRange& ran
 }
 
 std::string scene_hash(const Scene& scene) {
-    std::uint64_t hash = 1469598103934665603ull;
-    for (unsigned char c : resolved_toml(scene)) hash = (hash ^ c) * 1099511628211ull;
-    return fmt::format("{:016x}", hash);
+    return fmt::format("{:016x}", fnv1a(resolved_toml(scene)));
 }
 
 void write_group_vdb(const std::filesystem::path& path, const std::vector<Solution>& group, const GroupLattice& lattice) {
@@ -100,18 +120,8 @@ void write_group_vdb(const std::filesystem::path& path, const std::vector<Soluti
 }
 
 std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected) {
-    openvdb::initialize();
     const std::string where = path.string();
-    if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
-    openvdb::GridPtrVecPtr grids;
-    try {
-        openvdb::io::File file(where);
-        file.open();
-        grids = file.getGrids();
-        file.close();
-    } catch (const std::exception& e) {
-        fail(where, "is not a readable OpenVDB file ({})", e.what());
-    }
+    const openvdb::GridPtrVecPtr grids = read_grids(path, false);
     std::vector<std::array<int, 4>> poses;
     for (int l = expected.z_first; l <= expected.z_last; ++l) {
         const std::string name = grid_name(expected, l);
@@ -142,18 +152,8 @@ std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path
 }
 
 GroupLattice read_group_lattice(const std::filesystem::path& path) {
-    openvdb::initialize();
     const std::string where = path.string();
-    if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
-    openvdb::GridPtrVecPtr grids;
-    try {
-        openvdb::io::File file(where);
-        file.open(false);
-        grids = file.readAllGridMetadata();
-        file.close();
-    } catch (const std::exception& e) {
-        fail(where, "is not a readable OpenVDB file ({})", e.what());
-    }
+    const openvdb::GridPtrVecPtr grids = read_grids(path, true);
     if (grids->empty()) fail(where, "holds no grid: not an amhv solution group");
     GroupLattice lattice;
     const openvdb::GridBase& first = *grids->front();
