@@ -55,6 +55,10 @@ std::string amhv_command() { return std::string("'") + AMHV_BINARY + "'"; }
 
 CommandResult run_amhv(const std::string& arguments) { return run_shell(amhv_command() + " " + arguments); }
 
+CommandResult validate_gltf(const std::filesystem::path& file) {
+    return run_shell("node '" + (source_dir() / "tools" / "validate_gltf.cjs").string() + "' '" + file.string() + "'");
+}
+
 void write_obj(const std::filesystem::path& path, const TriangleMesh& mesh) {
     std::ofstream out(path);
     out.precision(9);

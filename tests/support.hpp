@@ -50,6 +50,9 @@ CommandResult run_amhv(const std::string& arguments);
 CommandResult run_shell(const std::string& command);
 // The built `amhv` binary, shell-quoted.
 std::string amhv_command();
+// The Khronos glTF validator (tools/validate_gltf.cjs, installed by tools/setup.sh) on `file`:
+// exit 0 when it finds no error; its report line and first issues as output.
+CommandResult validate_gltf(const std::filesystem::path& file);
 // How many lines of the output are "amhv: error: ..." lines.
 int one_line_error(const CommandResult& result);
 

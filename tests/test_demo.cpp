@@ -108,6 +108,10 @@ TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
             << "the bodies interpenetrate at output frame " << k << " (" << frame.at("segment").get<std::string>() << ")";
     }
     EXPECT_EQ(handshake_frames, 40);
+    // The whole scene in one glTF file the Khronos validator accepts.
+    const auto valid = test::validate_gltf(out / "scene.glb");
+    EXPECT_EQ(valid.exit_code, 0) << valid.output;
+    EXPECT_NE(valid.output.find(": 0 errors"), std::string::npos) << valid.output;
 }
 
 // The second real pair (CMU 20/21, a high five while passing), read as shipped: no T-pose, other
@@ -150,6 +154,8 @@ TEST(Demo, RestoresARealHighFiveFromAnotherSkeleton) {
     }
     EXPECT_EQ(key_frames, 9);
     EXPECT_GE(touching, 1);
+    const auto valid = test::validate_gltf(out / "scene.glb");
+    EXPECT_EQ(valid.exit_code, 0) << valid.output;
 }
 
 }  // namespace

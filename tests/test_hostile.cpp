@@ -13,7 +13,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "src/results/group_vdb.hpp"
 #include "src/sweep/problem.hpp"
+#include "src/sweep/solution_group.hpp"
 
 #include "support.hpp"
 
@@ -94,10 +96,23 @@ std::string mhv(const std::string& input, const std::string& voxel = "0.05") {
 }
 const std::string kEditFromSweep = "edit '{d}/scene.toml' --from-sweep '{d}/sweep' --backend cpu --no-frames --out '{d}/out'";
 
-// Line 2 (the first row) of the good sweep's group, replaced by `row`.
-std::string first_row_replaced(const std::string& csv, const std::string& row) {
-    const auto first = csv.find('\n') + 1, second = csv.find('\n', first);
-    return csv.substr(0, first) + row + csv.substr(second);
+// The good sweep's segment_1/group.vdb, tampered with as `kind` says: the bytes of the file.
+std::string tampered_group(const fs::path& good, const std::string& kind) {
+    results::GroupLattice lattice = results::read_group_lattice(good);
+    const SolutionGroup group = results::read_group_vdb(good, lattice);
+    if (kind == "truncated") return test::read_text(good).substr(0, 200);
+    SolutionGroup changed;
+    const std::size_t keep = kind == "short" ? group.runs().size() - 1 : group.runs().size();
+    for (std::size_t r = 0; r < keep; ++r) changed.add_run(group.runs()[r]);
+    if (kind == "outside") changed.add_run({0, lattice.angles - 1, 10000, 10000, 10000});
+    if (kind == "angle") changed.add_run({0, lattice.angles, 0, 0, 0});
+    if (kind == "other-scene") lattice.scene_hash = "0123456789abcdef";
+    if (kind == "other-lattice") lattice.voxel = 0.05;
+    if (kind == "other-segment") lattice.segment = 2;
+    if (kind == "heights") lattice.z_last = 1;  // grids solutions_z0 and solutions_z1, no grid "solutions"
+    test::TempDir tmp;
+    results::write_group_vdb(tmp.path() / "group.vdb", changed, lattice);
+    return test::read_text(tmp.path() / "group.vdb");
 }
 
 class HostileInput : public ::testing::TestWithParam<Hostile> {
@@ -108,21 +123,18 @@ public:
         std::ofstream(folder_->path() / "scene.toml") << kScene;
         auto result = test::run_amhv(fmt::format("sweep '{0}/scene.toml' --no-maps --backend cpu --out '{0}/sweep'", folder_->path().string()));
         ASSERT_EQ(result.exit_code, 0) << result.output;
-        csv_ = test::read_text(folder_->path() / "sweep" / "segment_1" / "solutions.csv");
-        ASSERT_GT(std::count(csv_.begin(), csv_.end(), '\n'), 3);
+        ASSERT_GT(results::read_group_vdb(good_group(), results::read_group_lattice(good_group())).size(), 3u);
     }
+    static fs::path good_group() { return folder_->path() / "sweep" / "segment_1" / "group.vdb"; }
     static void TearDownTestSuite() {
         delete folder_;
         folder_ = nullptr;
     }
-    static const std::string& csv() { return csv_; }
 
 protected:
     static test::TempDir* folder_;
-    static std::string csv_;
 };
 test::TempDir* HostileInput::folder_ = nullptr;
-std::string HostileInput::csv_;
 
 TEST_P(HostileInput, IsRefusedInOneLine) {
     const Hostile& c = GetParam();
@@ -138,13 +150,11 @@ TEST_P(HostileInput, IsRefusedInOneLine) {
             continue;
         }
         fs::create_directories((d / path).parent_path());
-        std::string text = content;
-        if (text.rfind("@csv:", 0) == 0) text = first_row_replaced(csv_, text.substr(5));
-        if (text == "@csv-swap") {  // the first two rows exchanged
-            const auto first = csv_.find('\n') + 1, second = csv_.find('\n', first) + 1, third = csv_.find('\n', second) + 1;
-            text = csv_.substr(0, first) + csv_.substr(second, third - second) + csv_.substr(first, second - first) + csv_.substr(third);
+        if (content == "@remove") {
+            fs::remove(d / path);
+            continue;
         }
-        if (text == "@csv-short") text = csv_.substr(0, csv_.rfind('\n', csv_.size() - 2) + 1);
+        const std::string text = content.rfind("@group:", 0) == 0 ? tampered_group(good_group(), content.substr(7)) : content;
         std::ofstream(d / path, std::ios::binary) << text;
     }
     const std::string arguments = std::regex_replace(c.arguments, std::regex("\\{d\\}"), d.string());
@@ -282,22 +292,23 @@ std::vector<Hostile> scene_cases() {
 }
 
 std::vector<Hostile> sweep_folder_cases() {
-    auto tampered = [](const std::string& csv) {
-        return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/segment_1/solutions.csv", csv}};
+    auto tampered = [](const std::string& kind) {
+        return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/segment_1/group.vdb", "@group:" + kind}};
     };
-    const std::string at = "solutions.csv:2: ";
+    const std::string at = "segment_1/group.vdb: ";
     return {
-        {"GroupRowHuge", tampered("@csv:1e300,0.44,0,0,0.5,0,0"), kEditFromSweep, at + "pose (1e+300, 0.44, 0) is not on the sweep's 0.04 m lattice"},
-        {"GroupRowNaN", tampered("@csv:nan,0.44,0,0,0.5,0,0"), kEditFromSweep, at + "expected seven numbers"},
-        {"GroupRowOffLattice", tampered("@csv:0.290000,0.440000,0,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.29, 0.44, 0) is not on the sweep's 0.04 m lattice"},
-        {"GroupRowZOffLattice", tampered("@csv:0.280000,0.440000,0.01,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.28, 0.44, 0.01) is not on the sweep's 0.04 m lattice"},
-        {"GroupRowZOutsideRange", tampered("@csv:0.280000,0.440000,0.04,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (0.28, 0.44, 0.04) lies outside the range"},
-        {"GroupRowAngleOffLattice", tampered("@csv:0.280000,0.440000,0,1.000000,0.5,0,0"), kEditFromSweep, at + "theta 1 deg is not on the sweep's 30 deg steps"},
-        {"GroupRowOutsideRange", tampered("@csv:400.000000,0.440000,0,0.000000,0.5,0,0"), kEditFromSweep, at + "pose (400, 0.44, 0) lies outside the range"},
-        {"GroupRowDescriptors", tampered("@csv:0.280000,0.440000,0,0.000000,0.521536,10.0,-17.523381"), kEditFromSweep, at + "the descriptors L, thetaA, thetaB are not those of the pose"},
-        {"GroupRowsSwapped", tampered("@csv-swap"), kEditFromSweep, "solutions.csv:3: rows are not in the sweep's (z, theta, y, x) order"},
-        {"GroupRowMissing", tampered("@csv-short"), kEditFromSweep, "solutions.csv: has"},
-        {"GroupHeader", tampered("a,b,c\n"), kEditFromSweep, "solutions.csv:1: expected the header"},
+        {"GroupOtherScene", tampered("other-scene"), kEditFromSweep, at + "grid solutions is the group of another scene (scene_hash differs)"},
+        {"GroupOtherLattice", tampered("other-lattice"), kEditFromSweep, at + "grid solutions was swept on another lattice or for another key segment"},
+        {"GroupOtherSegment", tampered("other-segment"), kEditFromSweep, at + "grid solutions was swept on another lattice or for another key segment"},
+        {"GroupMissingGrid", tampered("heights"), kEditFromSweep, at + "has no grid solutions: not the group of this key segment's sweep"},
+        {"GroupOutsideRange", tampered("outside"), kEditFromSweep, at + "holds poses at x 400..400 m, y 400 m (theta index 11), outside the range"},
+        {"GroupAngleOffLattice", tampered("angle"), kEditFromSweep, at + "grid solutions has poses at angle index 12, outside 0..11"},
+        {"GroupPoseMissing", tampered("short"), kEditFromSweep, at + "holds"},
+        {"GroupTruncated", tampered("truncated"), kEditFromSweep, at + "is not a readable OpenVDB file"},
+        {"GroupNotVdb", {{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/segment_1/group.vdb", "x,y,z\n1,2,3\n"}}, kEditFromSweep,
+         at + "is not a readable OpenVDB file"},
+        {"GroupMissing", {{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/segment_1/group.vdb", "@remove"}}, kEditFromSweep,
+         at + "cannot open the solution group"},
         {"ResultNotJson", {{"@cmu", ""}, {"scene.toml", kScene}, {"@sweep", ""}, {"sweep/result.json", "{ not json"}}, kEditFromSweep, "result.json: is not valid JSON"},
         {"ResultOtherSampling", {{"@cmu", ""}, {"scene.toml", scene_with("voxel = 0.04", "voxel = 0.05")}, {"@sweep", ""}}, kEditFromSweep,
          "result.json: was swept at 0.04 m / 30 deg but the scene asks for 0.05 m / 30 deg"},
@@ -343,14 +354,14 @@ void sweep_scenes(const fs::path& d, const std::vector<std::pair<std::string, st
     fs::copy(test::source_dir() / "data" / "cmu", d / "cmu");
     for (const auto& [name, text] : scenes) {
         std::ofstream(d / (name + ".toml")) << text;
-        auto sweep = test::run_amhv(fmt::format("sweep '{0}/{1}.toml' --no-maps --backend cpu --out '{0}/{1}'", d.string(), name));
+        auto sweep = test::run_amhv(fmt::format("sweep '{0}/{1}.toml' --no-maps --csv --backend cpu --out '{0}/{1}'", d.string(), name));
         ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
     }
 }
 
 
-// A group row that is consistent (on the lattice, in range, its own descriptors) but not a solution:
-// the edit sweeps the pose it chose again and refuses it.
+// A group that is consistent (this scene's lattice and hash, in range, its count) but holds a pose
+// that is not a solution: the edit sweeps the pose it chose again and refuses it.
 TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
     test::TempDir tmp;
     const fs::path d = tmp.path();
@@ -358,17 +369,12 @@ TEST(HostileSweepFolder, AChosenPoseThatIsNoSolutionIsRefused) {
     fs::rename(d / "scene", d / "sweep");
     auto json = nlohmann::json::parse(test::read_text(d / "sweep" / "result.json"));
     auto& segment = json["segments"][0];
-    SweepProblem problem;
-    problem.voxel = 0.04;
-    problem.angle_step_deg = 30;
-    problem.a.facing = Eigen::Vector2d(segment["facing"]["A"][0].get<double>(), segment["facing"]["A"][1].get<double>());
-    problem.b.facing = Eigen::Vector2d(segment["facing"]["B"][0].get<double>(), segment["facing"]["B"][1].get<double>());
     // The range's first corner: far from A, no contact.
     const int i = int(std::lround(segment["range"]["x_m"][0].get<double>() / 0.04)), j = int(std::lround(segment["range"]["y_m"][0].get<double>() / 0.04));
-    const Solution s = describe(problem, i, j, 0);
-    std::ofstream(d / "sweep" / "segment_1" / "solutions.csv")
-        << "x,y,z,theta_deg,L,thetaA_deg,thetaB_deg\n"
-        << fmt::format("{:.6f},{:.6f},0.000000,{:.6f},{:.6f},{:.6f},{:.6f}\n", s.x, s.y, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
+    const fs::path file = d / "sweep" / "segment_1" / "group.vdb";
+    SolutionGroup group;
+    group.add({i, j, 0, 0});
+    results::write_group_vdb(file, group, results::read_group_lattice(file));
     segment["solutions"] = 1;
     std::ofstream(d / "sweep" / "result.json") << json.dump(2);
     auto edit = test::run_amhv(fmt::format("edit '{0}/scene.toml' --from-sweep '{0}/sweep' --backend cpu --no-frames --out '{0}/out'", d.string()));

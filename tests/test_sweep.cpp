@@ -1,5 +1,6 @@
 // The placement sweep: the Vulkan path against the plain CPU reference (identical outcome for every
 // pose), and both against solution sets known in closed form.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -16,6 +17,7 @@
 #include "src/sweep/objects.hpp"
 #include "src/results/group_vdb.hpp"
 #include "src/sweep/slice_runs.hpp"
+#include "src/sweep/solution_group.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -108,7 +110,7 @@ TEST(Sweep, StaticSpheresTouchWithinTwoRadii) {
     auto both = sweep_both(problem);
     expect_identical(both);
     ASSERT_GT(both.gpu.solutions, 0u);
-    for (const Solution& s : solutions(problem, both.gpu)) EXPECT_LT(s.distance, 2 * r + 2 * h);
+    solution_group(both.gpu).for_each([&](const PoseIndex& p) { EXPECT_LT(describe(problem, p.i, p.j, p.k, p.l).distance, 2 * r + 2 * h); });
     const PoseRange& range = both.gpu.range;
     for (int k = 0; k < range.angles; ++k)
         for (int j = range.j_first; j <= range.j_last; ++j)
@@ -271,17 +273,15 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
         }
         solutions += both.gpu.solutions;
         visibility_rejections += both.gpu.rejected[3];
-        for (const Solution& s : amhv::solutions(problem, both.gpu)) raised_solutions += s.l != 0;
+        const SolutionGroup group = solution_group(both.gpu);
+        group.for_each([&](const PoseIndex& p) { raised_solutions += p.l != 0; });
         // The group as a volume (segment_N/group.vdb) reads back as exactly the set the sweep decided.
         {
-            const std::vector<Solution> group = amhv::solutions(problem, both.gpu);
+            ASSERT_EQ(group.size(), both.gpu.solutions);
             results::GroupLattice lattice{h, 30, 12, 1, problem.range.z_first, problem.range.z_last, "test"};
             test::TempDir dir;
             results::write_group_vdb(dir.path() / "group.vdb", group, lattice);
-            const auto poses = results::read_group_vdb(dir.path() / "group.vdb", lattice);
-            ASSERT_EQ(poses.size(), group.size());
-            for (std::size_t n = 0; n < group.size(); ++n)
-                EXPECT_EQ(poses[n], (std::array<int, 4>{group[n].i, group[n].j, group[n].k, group[n].l})) << n;
+            EXPECT_TRUE(results::read_group_vdb(dir.path() / "group.vdb", lattice) == group);
             lattice.scene_hash = "other";
             EXPECT_THROW(results::read_group_vdb(dir.path() / "group.vdb", lattice), Error);
         }
@@ -294,14 +294,14 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
             const int i = pick_i(random), j = pick_j(random), k = pick_k(random), l = pick_l(random);
             EXPECT_EQ(prober.probe(i, j, k, l, false).outcome, both.reference.at(i, j, k, l)) << i << " " << j << " " << k << " " << l;
         }
-        for (const Solution& s : amhv::solutions(problem, both.gpu)) {
+        if (!group.empty()) {
+            const PoseIndex s = group.at(group.size() / 2);
             const PoseProbe probe = prober.probe(s.i, s.j, s.k, s.l, true);
             EXPECT_EQ(probe.outcome, PoseOutcome::Solution);
             EXPECT_TRUE(probe.failed_frames().empty());
             if (problem.type.variant == 'b') {
                 EXPECT_TRUE(std::any_of(probe.gap_m.begin(), probe.gap_m.end(), [](double g) { return g == 0; }));
             }
-            break;
         }
     }
     EXPECT_GT(solutions, 0u);
@@ -311,20 +311,50 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
 
 // A solid block of poses is stored as tiles (a few bytes) and reads back pose for pose.
 TEST(Sweep, GroupVdbStoresSolidBlocksAsTilesAndReadsThemBack) {
-    std::vector<Solution> group;
+    SolutionGroup group;
+    std::vector<PoseIndex> poses;
     for (int l = -1; l <= 1; ++l)
         for (int k = 0; k < 40; ++k)
             for (int j = -20; j < 20; ++j)
                 for (int i = 3; i < 43; ++i)
-                    if (l != 1 || (i + j + k) % 7 == 0) group.push_back({i, j, k, l});
+                    if (l != 1 || (i + j + k) % 7 == 0) group.add({i, j, k, l}), poses.push_back({i, j, k, l});
     const results::GroupLattice lattice{0.01, 2, 180, 3, -1, 1, "block"};
     test::TempDir dir;
     results::write_group_vdb(dir.path() / "group.vdb", group, lattice);
     EXPECT_LT(std::filesystem::file_size(dir.path() / "group.vdb"), 2 * group.size());  // the CSV takes about 60 bytes a pose
     EXPECT_EQ(results::read_group_lattice(dir.path() / "group.vdb").scene_hash, "block");
-    const auto poses = results::read_group_vdb(dir.path() / "group.vdb", lattice);
-    ASSERT_EQ(poses.size(), group.size());
-    for (std::size_t n = 0; n < group.size(); ++n) ASSERT_EQ(poses[n], (std::array<int, 4>{group[n].i, group[n].j, group[n].k, group[n].l})) << n;
+    const SolutionGroup back = results::read_group_vdb(dir.path() / "group.vdb", lattice);
+    ASSERT_EQ(back.size(), poses.size());
+    std::uint64_t n = 0;
+    back.for_each([&](const PoseIndex& p) { ASSERT_EQ(p, poses[n++]); });
+}
+
+// The group's runs: members in the sweep's order, member n by rank, membership, and refusal of a
+// pose out of order (a set, never a list with repeats).
+TEST(Sweep, SolutionGroupHoldsRunsInTheSweepsOrder) {
+    std::mt19937 random(33);
+    std::vector<PoseIndex> poses;
+    SolutionGroup group;
+    for (int l = -1; l <= 1; ++l)
+        for (int k = 0; k < 6; ++k)
+            for (int j = -4; j <= 4; ++j)
+                for (int i = -10; i <= 10; ++i)
+                    if (random() % 3 != 0) group.add({i, j, k, l}), poses.push_back({i, j, k, l});
+    ASSERT_EQ(group.size(), poses.size());
+    EXPECT_LT(group.runs().size(), poses.size() / 2);  // runs merge neighbours along x
+    for (std::size_t n = 0; n < poses.size(); n += 7) EXPECT_EQ(group.at(n), poses[n]) << n;
+    std::vector<PoseIndex> listed;
+    group.for_range(5, 300, [&](const PoseIndex& p) { listed.push_back(p); });
+    EXPECT_TRUE(std::equal(listed.begin(), listed.end(), poses.begin() + 5, poses.begin() + 300));
+    EXPECT_EQ(listed.size(), 295u);
+    for (int n = 0; n < 500; ++n) {
+        const PoseIndex p{int(random() % 23) - 11, int(random() % 11) - 5, int(random() % 7), int(random() % 3) - 1};
+        EXPECT_EQ(group.contains(p), std::find(poses.begin(), poses.end(), p) != poses.end());
+    }
+    EXPECT_TRUE(group.any_raised());
+    EXPECT_THROW(group.add(poses.front()), Error);
+    EXPECT_THROW(group.add(poses.back()), Error);
+    EXPECT_THROW(group.at(group.size()), Error);
 }
 
 // Real hands part: two hands that touch for 7 frames and are 5 cm apart for the last 3. At the

@@ -12,7 +12,26 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenvdb-dev libboost-iostreams-dev
   python3 python3-openvdb universal-ctags time
+  libtinygltf-dev
 )
+# Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
+# nodejs bundles npm and conflicts with Debian's npm package).
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
+
+# The Khronos glTF validator exists only on the npm registry: installed into tools/npm/ (ignored by
+# git), pinned, for the tests that validate every scene.glb.
+gltf_validator="gltf-validator@2.0.0-dev.3.10"
+install_npm_tools() {
+  local prefix
+  prefix="$(cd "$(dirname "$0")" && pwd)/npm"
+  if [ -f "$prefix/node_modules/gltf-validator/package.json" ]; then
+    echo "setup: $gltf_validator already in tools/npm"
+    return
+  fi
+  echo "setup: installing $gltf_validator into tools/npm from the npm registry"
+  npm install --no-audit --no-fund --loglevel=error --prefix "$prefix" "$gltf_validator" >/dev/null
+}
 
 missing=()
 for p in "${packages[@]}"; do
@@ -20,6 +39,7 @@ for p in "${packages[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages already installed"
+  install_npm_tools
   exit 0
 fi
 
@@ -29,4 +49,5 @@ echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -qq
 "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+install_npm_tools
 echo "setup: done"

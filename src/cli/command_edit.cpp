@@ -34,8 +34,9 @@ void run_edit(const EditArguments& args) {
     for (const KeyEdit& k : edit.keys)
         std::cout << fmt::format("key segment {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
                                  k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y, k.chosen.theta_deg, k.chosen.distance);
-    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}, paths.svg, paths.png, views/key_N.png, result.json)\n",
-                             out.target().string(), edit.timeline.length(), args.options.frames ? ", frames/NNNN.ply" : "");
+    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}{}, paths.svg, paths.png, views/key_N.png, result.json)\n",
+                             out.target().string(), edit.timeline.length(), args.options.glb ? ", scene.glb" : "",
+                             args.options.frames ? ", frames/NNNN.ply" : "");
 }
 
 // The shipped data: AMHV_DATA_DIR in the environment, else the source tree's data/.
@@ -56,6 +57,7 @@ void run_demo(EditArguments args) {
         "look at:\n"
         "  {0}/views/key_1.png    the middle of the handshake from the side, as the edit places the two performers\n"
         "  {0}/paths.png          root paths from above: dashed = captured, solid = edited, thick = the handshake\n"
+        "  {0}/scene.glb          the whole edited scene, animated: Blender (File > Import > glTF 2.0) or any glTF viewer\n"
         "  {0}/frames/NNNN.ply    both performers per output frame (A orange, B blue): MeshLab, Blender (File > Import > PLY) or ParaView\n"
         "  {0}/result.json        the solution group, the chosen pose, and \"truth\": how far both are from the real capture\n"
         "  {0}/transforms.json    per output frame and performer: source frame and rigid transform\n",
@@ -73,7 +75,9 @@ void add_edit_command(CLI::App& app) {
     edit->add_option("--from-sweep", args->options.from_sweep, "Reuse the solution groups of an earlier `amhv sweep` (or `amhv edit`) of this scene");
     edit->add_flag("--allow-empty", args->options.allow_empty, "Keep B's captured placement in a key segment whose solution group is empty");
     edit->add_flag("!--no-frames", args->options.frames, "Skip frames/NNNN.ply");
+    edit->add_flag("!--no-glb", args->options.glb, "Skip scene.glb");
     edit->add_flag("--maps", args->options.maps, "Also write each key segment's feasibility maps");
+    edit->add_flag("--csv", args->options.csv, "Also write each solution group as segment_N/solutions.csv (text: gigabytes at fine sampling)");
     edit->add_flag("!--no-timings", args->options.timings, "Leave timings out of result.json (byte-identical reruns)");
     edit->callback([args] { run_edit(*args); });
 
@@ -83,6 +87,7 @@ void add_edit_command(CLI::App& app) {
     demo->add_option("--out", demo_args->out, "Output folder")->capture_default_str();
     add_backend_options(*demo, demo_args->backend, demo_args->device);
     demo->add_flag("!--no-frames", demo_args->options.frames, "Skip frames/NNNN.ply");
+    demo->add_flag("!--no-glb", demo_args->options.glb, "Skip scene.glb");
     demo->add_flag("!--no-timings", demo_args->options.timings, "Leave timings out of result.json");
     demo->callback([demo_args] { run_demo(*demo_args); });
 }

@@ -19,7 +19,7 @@ struct SweepArguments {
     std::string scene, out, backend = "vulkan";
     int segment = 0;  // 0: all
     int device = -1;
-    bool require_solutions = false, maps = true, timings = true;
+    bool require_solutions = false, maps = true, timings = true, csv = false;
 };
 
 void run_check(const std::string& file) {
@@ -40,12 +40,12 @@ void run_sweep(const SweepArguments& args) {
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
     StagedOutput out(args.out, scene_inputs(scene));
-    const pipeline::SweepStage stage = pipeline::sweep_scene(scene, backends, out.dir(), {args.segment, args.maps, args.timings}, start);
+    const pipeline::SweepStage stage = pipeline::sweep_scene(scene, backends, out.dir(), {args.segment, args.maps, args.timings, args.csv}, start);
     std::vector<int> empty_segments;
     for (const KeySweep& k : stage.sweeps)
-        if (k.solutions.empty()) empty_segments.push_back(k.index);
+        if (k.group.empty()) empty_segments.push_back(k.index);
     out.commit();
-    std::cout << fmt::format("wrote {}/ (result.json, segment_N/solutions.csv{})\n", out.target().string(),
+    std::cout << fmt::format("wrote {}/ (result.json, segment_N/group.vdb{}{})\n", out.target().string(), args.csv ? ", segment_N/solutions.csv" : "",
                              args.maps ? ", segment_N/feasibility/" : "");
     if (args.require_solutions && !empty_segments.empty())
         throw Error(fmt::format("--require-solutions: key segment {} has no solution", empty_segments.front()));
@@ -58,7 +58,7 @@ void run_solutions(const std::string& dir, int segment, const std::string& csv) 
         return;
     }
     pipeline::export_group_csv(group, csv);
-    std::cout << fmt::format("wrote {} ({} solutions)\n", csv, group.solutions.size());
+    std::cout << fmt::format("wrote {} ({} solutions)\n", csv, group.group.size());
 }
 
 }  // namespace
@@ -84,6 +84,7 @@ void add_scene_commands(CLI::App& app) {
     sweep->add_option("--segment", args->segment, "Only key segment N (1-based)");
     sweep->add_flag("--require-solutions", args->require_solutions, "Exit non-zero when a key segment has no solution");
     sweep->add_flag("!--no-maps", args->maps, "Skip the feasibility maps");
+    sweep->add_flag("--csv", args->csv, "Also write each solution group as segment_N/solutions.csv (text: gigabytes at fine sampling)");
     sweep->add_flag("!--no-timings", args->timings, "Leave timings out of result.json (byte-identical reruns)");
     sweep->callback([args] { run_sweep(*args); });
 }

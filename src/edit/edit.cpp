@@ -155,12 +155,17 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // Where the editor's placements put B relative to A, in A's capture axes.
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
-        for (const Solution& sol : s.solutions) c.solutions.push_back({sol.i, sol.j, radians(sol.theta_deg)});
+        c.solutions.reserve(s.group.size());
+        s.group.for_each([&](const PoseIndex& p) { c.solutions.push_back({p.i, p.j, radians(angles::wrap_degrees(p.k * s.describe.angle_step_deg))}); });
         // The editor's placements leave B's height as captured (z = 0): with z_range the prior
         // gains mu z^2, so that among equal poses the one least raised or lowered wins.
-        const bool raised = std::any_of(s.solutions.begin(), s.solutions.end(), [](const Solution& sol) { return sol.l != 0; });
-        if (key.intent.prefers() || raised)
-            for (const Solution& sol : s.solutions) c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z);
+        if (key.intent.prefers() || s.group.any_raised()) {
+            c.extra_unary.reserve(s.group.size());
+            s.group.for_each([&](const PoseIndex& p) {
+                const Solution sol = s.describe(p);
+                c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z);
+            });
+        }
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
@@ -208,7 +213,7 @@ void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps,
         k.chosen.y = offset.y();
         k.chosen.theta_deg = angles::degrees(sol.theta_rad);
         k.chosen.k = captured_k[i];
-        if (!captured[i]) k.chosen = sweeps[i].solutions[std::size_t(j)];
+        if (!captured[i]) k.chosen = sweeps[i].describe(sweeps[i].group.at(std::uint64_t(j)));
         r.keys.push_back(k);
         const TimelineSegment& seg = *std::find_if(r.timeline.segments.begin(), r.timeline.segments.end(),
                                                    [&](const TimelineSegment& s) { return s.key == k.index; });

@@ -13,6 +13,7 @@
 #include "host/choose/chain_dp.hpp"
 #include "src/scene/segment.hpp"
 #include "src/sweep/problem.hpp"
+#include "src/sweep/solution_group.hpp"
 
 namespace amhv {
 
@@ -20,8 +21,8 @@ namespace amhv {
 struct KeySweep {
     int index = 0;                    // 1-based key segment
     Vec3 root_a = Vec3::Zero(), root_b = Vec3::Zero();  // C^A, C^B in the capture frames
-    Eigen::Vector2d facing_a = Eigen::Vector2d::UnitX(), facing_b = Eigen::Vector2d::UnitX();
-    std::vector<Solution> solutions;  // the solution group, (theta, y, x) order
+    PoseDescriber describe;  // the sampling and A's and B's facings F: a member's descriptors
+    SolutionGroup group;     // the solution group, in the sweep's (z, theta, y, x) order
     std::uint64_t poses_tested = 0;
     std::array<std::uint64_t, 4> rejected{};  // contact, dictionary, fidelity, visibility
 };

@@ -6,13 +6,14 @@
 #include <vector>
 
 #include "src/results/group_vdb.hpp"
-#include "src/sweep/problem.hpp"
+#include "src/sweep/solution_group.hpp"
 
 namespace amhv::pipeline {
 
 struct GroupRead {
     results::GroupLattice lattice;
-    std::vector<Solution> solutions;  // with their descriptors, in (z, theta, y, x) order
+    SolutionGroup group;
+    PoseDescriber describe;  // the descriptors of a member (facings from result.json)
     std::uint64_t file_bytes = 0;
 };
 

@@ -13,6 +13,7 @@
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
 #include "src/results/group_vdb.hpp"
+#include "src/results/scene_glb.hpp"
 #include "src/results/solutions_csv.hpp"
 #include "src/pipeline/probe_stage.hpp"
 
@@ -44,14 +45,13 @@ private:
     bool drawn_ = false;
 };
 
-KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, std::vector<Solution> solutions) {
+KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, SolutionGroup group) {
     KeySweep k;
     k.index = segment.index;
     k.root_a = problem.a.root;
     k.root_b = problem.b.root;
-    k.facing_a = problem.a.facing;
-    k.facing_b = problem.b.facing;
-    k.solutions = std::move(solutions);
+    k.describe = describer(problem);
+    k.group = std::move(group);
     k.poses_tested = problem.range.size();
     k.rejected = result.rejected;
     return k;
@@ -68,6 +68,14 @@ void report_segment(const KeySegment& segment, const SweepProblem& problem, cons
                                  segment.type.name(), solutions, problem.range.size(), sweep_seconds, rejection_counts(result.rejected), limits);
 }
 
+// The sweep's solutions within the editor's limits on the descriptors, decided on the host for
+// both backends (exact: the descriptors are the poses' own).
+SolutionGroup limited_group(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result) {
+    if (!segment.intent.limits()) return solution_group(result);
+    const PoseDescriber describe = describer(problem);
+    return solution_group(result, [&](const PoseIndex& p) { return within_limits(segment.intent, describe(p)); });
+}
+
 // With --from-sweep the groups come from files: the pose the DP chose in each key segment is swept
 // again with the CPU reference (one pose: the segment's volumes and one test per constraint), so
 // that an edit never rests on a row that is not a solution of this scene.
@@ -79,7 +87,7 @@ void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSourc
         if (key.captured) continue;
         SweepProblem problem = build_segment(scene, scene.segments[s], a, b, voxeliser).problem;
         const Solution& pose = key.chosen;
-        const std::string where = fmt::format("{}/segment_{}/solutions.csv", from_sweep, key.index);
+        const std::string where = fmt::format("{}/segment_{}/group.vdb", from_sweep, key.index);
         const PoseRange& r = problem.range;
         if (pose.i < r.i_first || pose.i > r.i_last || pose.j < r.j_first || pose.j > r.j_last || pose.l < r.z_first || pose.l > r.z_last)
             fail(where, "the chosen pose ({}, {}, z {}, {} deg) lies outside the poses key segment {} sweeps", pose.x, pose.y, pose.z, pose.theta_deg,
@@ -119,29 +127,27 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         t0 = std::chrono::steady_clock::now();
         const auto dir = out / fmt::format("segment_{}", segment.index);
         fs::create_directories(dir);
-        auto list = solutions(problem, result);
-        // The editor's limits on the descriptors, on the host for both backends (exact: the
-        // descriptors are the solutions' own).
-        const std::size_t before_limits = list.size();
-        std::erase_if(list, [&](const Solution& s) { return !within_limits(segment.intent, s); });
-        const std::uint64_t limited = before_limits - list.size();
-        write_solutions_csv(dir / "solutions.csv", list);
+        SolutionGroup group = limited_group(segment, problem, result);
+        const std::uint64_t limited = result.solutions - group.size();
+        if (options.csv) write_solutions_csv(dir / "solutions.csv", group, describer(problem));
+        const auto group_start = std::chrono::steady_clock::now();
         const results::GroupLattice lattice = results::group_lattice(scene, segment.index, problem.range);
-        results::write_group_vdb(dir / "group.vdb", list, lattice);
-        results::write_json_file(dir / "group_summary.json", results::group_summary(list, lattice));
+        results::write_group_vdb(dir / "group.vdb", group, lattice);
+        results::write_json_file(dir / "group_summary.json", results::group_summary(group, lattice));
+        timings["group"] = seconds_since(group_start);
         const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0,
-                                          std::uint64_t(fs::file_size(dir / "group.vdb"))};
+                                          std::uint64_t(fs::file_size(dir / "group.vdb")), options.csv};
         timings["output"] = seconds_since(t0);
         stage.mhv_seconds += timings["mhv"].get<double>();
         stage.sweep_seconds += timings["sweep"].get<double>();
         stage.output_seconds += timings["output"].get<double>();
 
-        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, list, limited, files,
+        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, group, limited, files,
                                                              options.timings ? timings : results::Json(nullptr)));
         // An empty group says why: the poses that came nearest.
-        if (list.empty()) stage.segments.back()["near_misses"] = near_misses(problem, result);
-        stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(list)));
-        report_segment(segment, problem, result, limited, stage.sweeps.back().solutions.size(), timings["sweep"].get<double>());
+        if (group.empty()) stage.segments.back()["near_misses"] = near_misses(problem, result);
+        report_segment(segment, problem, result, limited, group.size(), timings["sweep"].get<double>());
+        stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(group)));
     }
     return stage;
 }
@@ -173,7 +179,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
 
     // aMHVs and sweep (or the groups of an earlier sweep).
     SweepStage stage = options.from_sweep.empty()
-                           ? run_sweep_stage(scene, a, b, backends.voxeliser, backends.sweeper, out, {0, options.maps, options.timings})
+                           ? run_sweep_stage(scene, a, b, backends.voxeliser, backends.sweeper, out, {0, options.maps, options.timings, options.csv})
                            : read_sweep_stage(options.from_sweep, scene);
 
     EditOptions edit_options;
@@ -186,6 +192,11 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     results::EditFiles files;
     files.frames = options.frames;
     files.mesh_files = options.frames ? write_scene_frames(out / "frames", edit, a, b) : 0;
+    if (options.glb) {
+        const SceneGlbReport glb = write_scene_glb(out / "scene.glb", edit, a, b, scene.a.fps);
+        files.glb = true;
+        files.glb_bytes = glb.bytes;
+    }
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
     files.view_frames = write_key_views(out / "views", edit, a, b);
 

@@ -26,6 +26,7 @@ struct SweepStage {
 struct SweepStageOptions {
     int only_segment = 0;  // 0: every key segment
     bool maps = true, timings = true;
+    bool csv = false;  // also segment_N/solutions.csv
 };
 
 // Builds, sweeps and writes every key segment into `out` (segment_N/...), printing one line each.
@@ -49,7 +50,8 @@ SweepStage sweep_scene(const Scene& scene, Backends& backends, const std::filesy
 
 struct EditRunOptions {
     std::string from_sweep;  // empty: sweep now
-    bool allow_empty = false, frames = true, maps = false, timings = true;
+    bool allow_empty = false, frames = true, maps = false, timings = true, csv = false;
+    bool glb = true;  // scene.glb
 };
 
 // `amhv edit`: the sweep stage (or --from-sweep), the edit, transforms.json, frames, paths, views

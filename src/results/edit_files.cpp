@@ -147,15 +147,7 @@ EditedFrame edited_frame(const EditResult& edit, int k, ObjectSource& a, ObjectS
     EditedFrame frame;
     ObjectSource* sources[2] = {&a, &b};
     for (int o = 0; o < 2; ++o) {
-        const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
-        TriangleMesh mesh;
-        for (const BodyPart& part : sources[o]->frame_parts(e.source)) mesh.append(part.mesh);
-        const Eigen::Rotation2Dd rotation(e.yaw);
-        for (Vec3& v : mesh.vertices) {
-            const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
-            v = Vec3(p.x(), p.y(), v.z() + e.lift);
-        }
-        frame.both.append(mesh);
+        frame.both.append(placed_mesh(edit, k, o, *sources[o]));
         frame.vertices_from[std::size_t(o) + 1] = frame.both.vertices.size();
         frame.faces_from[std::size_t(o) + 1] = frame.both.triangles.size();
     }
@@ -163,6 +155,18 @@ EditedFrame edited_frame(const EditResult& edit, int k, ObjectSource& a, ObjectS
 }
 
 }  // namespace
+
+TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source) {
+    const ObjectFrameEdit& e = edit.frames[std::size_t(object)][std::size_t(k)];
+    TriangleMesh mesh;
+    for (const BodyPart& part : source.frame_parts(e.source)) mesh.append(part.mesh);
+    const Eigen::Rotation2Dd rotation(e.yaw);
+    for (Vec3& v : mesh.vertices) {
+        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
+        v = Vec3(p.x(), p.y(), v.z() + e.lift);
+    }
+    return mesh;
+}
 
 int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
     fs::create_directories(folder);

@@ -14,6 +14,10 @@ namespace amhv {
 // x, y, yaw and as a row-major 4x4 matrix.
 void write_transforms_json(const std::filesystem::path& path, const Scene& scene, const EditResult& edit);
 
+// Object `object`'s (0 = A, 1 = B) mesh at output frame k, moved into the scene (the frame's
+// rigid transform and lift).
+TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source);
+
 // `folder`/NNNN.ply, one binary PLY per output frame holding both objects' transformed meshes: A's
 // vertices first, coloured orange (230, 120, 40), then B's, blue (40, 120, 230); the header's
 // comments give each object's vertex and face ranges. Returns the number of files.

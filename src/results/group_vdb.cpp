@@ -57,6 +57,81 @@ openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path, bool metada
     }
 }
 
+void check_grid_lattice(const openvdb::BoolGrid& grid, const GroupLattice& expected, int l, const std::string& where) {
+    const std::string& name = grid.getName();
+    if (meta_or_fail<openvdb::DoubleMetadata, double>(grid, "voxel_m", where) != expected.voxel ||
+        meta_or_fail<openvdb::DoubleMetadata, double>(grid, "angle_step_deg", where) != expected.angle_step_deg ||
+        meta_or_fail<openvdb::Int32Metadata, int>(grid, "angles", where) != expected.angles ||
+        meta_or_fail<openvdb::Int32Metadata, int>(grid, "segment", where) != expected.segment ||
+        meta_or_fail<openvdb::Int32Metadata, int>(grid, "z_voxels", where) != l)
+        fail(where, "grid {} was swept on another lattice or for another key segment than the scene's", name);
+    if (meta_or_fail<openvdb::StringMetadata, std::string>(grid, "scene_hash", where) != expected.scene_hash)
+        fail(where, "grid {} is the group of another scene (scene_hash differs)", name);
+}
+
+// The active voxels of one height's grid as runs of i along (k, j) rows, in the sweep's order
+// (theta, y, x), merged where they continue across leaves. Leaves (8^3 poses) are read row by row
+// from their masks; solid blocks stored as tiles (pruneGrid) expand row by row of their box.
+std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l) {
+    std::vector<PoseRun> pieces;
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+        const openvdb::Coord origin = leaf->origin();
+        const auto& mask = leaf->getValueMask();
+        for (int y = 0; y < 8; ++y)
+            for (int z = 0; z < 8; ++z)
+                for (int x = 0; x < 8;) {
+                    if (!mask.isOn(openvdb::BoolTree::LeafNodeType::coordToOffset(origin + openvdb::Coord(x, y, z)))) {
+                        ++x;
+                        continue;
+                    }
+                    int end = x;
+                    while (end + 1 < 8 && mask.isOn(openvdb::BoolTree::LeafNodeType::coordToOffset(origin + openvdb::Coord(end + 1, y, z)))) ++end;
+                    pieces.push_back({l, origin.z() + z, origin.y() + y, origin.x() + x, origin.x() + end});
+                    x = end + 1;
+                }
+    }
+    auto tile = grid.tree().cbeginValueOn();
+    tile.setMaxDepth(openvdb::BoolTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only: leaves were read above
+    for (; tile; ++tile) {
+        const openvdb::CoordBBox box = tile.getBoundingBox();
+        for (int k = box.min().z(); k <= box.max().z(); ++k)
+            for (int j = box.min().y(); j <= box.max().y(); ++j) pieces.push_back({l, k, j, box.min().x(), box.max().x()});
+    }
+    std::sort(pieces.begin(), pieces.end(), [](const PoseRun& a, const PoseRun& b) { return std::tie(a.k, a.j, a.i_first) < std::tie(b.k, b.j, b.i_first); });
+    std::vector<PoseRun> runs;
+    for (const PoseRun& p : pieces)
+        if (!runs.empty() && runs.back().k == p.k && runs.back().j == p.j && runs.back().i_last + 1 == p.i_first)
+            runs.back().i_last = p.i_last;
+        else
+            runs.push_back(p);
+    return runs;
+}
+
+// The resolved scene as it reads wherever its folder lies: without the comment that names the
+// file, and with every absolute path (a quoted string starting with '/') relative to the scene's
+// folder, so that a project moved or copied elsewhere keeps its groups.
+std::string portable_toml(const Scene& scene) {
+    const std::string text = resolved_toml(scene);
+    const std::filesystem::path folder = std::filesystem::absolute(scene.file).parent_path();
+    std::string out;
+    std::size_t at = 0;
+    while (at < text.size()) {
+        std::size_t end = text.find('\n', at);
+        end = end == std::string::npos ? text.size() : end + 1;
+        std::string line = text.substr(at, end - at);
+        at = end;
+        if (line.rfind('#', 0) == 0) continue;
+        for (std::size_t quote = line.find("'/"); quote != std::string::npos; quote = line.find("'/", quote + 1)) {
+            const std::size_t close = line.find('\'', quote + 1);
+            if (close == std::string::npos) break;
+            const std::string relative = std::filesystem::path(line.substr(quote + 1, close - quote - 1)).lexically_relative(folder).generic_string();
+            line.replace(quote + 1, close - quote - 1, relative);
+        }
+        out += line;
+    }
+    return out;
+}
+
 // OpenVDB stamps every file with a random UUID (36 characters at byte 21 of the header), so two
 // writes of one group would differ. The UUID becomes a hash of the file's content after it: same
 // group, same bytes; another group, another id.
@@ -83,10 +158,10 @@ GroupLattice group_lattice(const Scene& scene, int segment, const PoseRange& ran
 }
 
 std::string scene_hash(const Scene& scene) {
-    return fmt::format("{:016x}", fnv1a(resolved_toml(scene)));
+    return fmt::format("{:016x}", fnv1a(portable_toml(scene)));
 }
 
-void write_group_vdb(const std::filesystem::path& path, const std::vector<Solution>& group, const GroupLattice& lattice) {
+void write_group_vdb(const std::filesystem::path& path, const SolutionGroup& group, const GroupLattice& lattice) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
     std::map<int, openvdb::BoolGrid::Ptr> by_level;
@@ -105,8 +180,9 @@ void write_group_vdb(const std::filesystem::path& path, const std::vector<Soluti
     }
     for (auto& [l, grid] : by_level) {
         auto access = grid->getAccessor();
-        for (const Solution& s : group)
-            if (s.l == l) access.setValueOn(openvdb::Coord(s.i, s.j, s.k), true);
+        for (const PoseRun& run : group.runs())
+            if (run.l == l)
+                for (int i = run.i_first; i <= run.i_last; ++i) access.setValueOn(openvdb::Coord(i, run.j, run.k), true);
         grid->pruneGrid();
     }
     try {
@@ -119,36 +195,24 @@ void write_group_vdb(const std::filesystem::path& path, const std::vector<Soluti
     stamp_content_uuid(path);
 }
 
-std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected) {
+SolutionGroup read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected) {
     const std::string where = path.string();
     const openvdb::GridPtrVecPtr grids = read_grids(path, false);
-    std::vector<std::array<int, 4>> poses;
+    SolutionGroup group;
     for (int l = expected.z_first; l <= expected.z_last; ++l) {
         const std::string name = grid_name(expected, l);
         const auto found = std::find_if(grids->begin(), grids->end(), [&](const openvdb::GridBase::Ptr& g) { return g->getName() == name; });
         if (found == grids->end()) fail(where, "has no grid {}: not the group of this key segment's sweep", name);
         const auto grid = openvdb::gridPtrCast<openvdb::BoolGrid>(*found);
         if (!grid) fail(where, "grid {} is not a BoolGrid", name);
-        if (meta_or_fail<openvdb::DoubleMetadata, double>(*grid, "voxel_m", where) != expected.voxel ||
-            meta_or_fail<openvdb::DoubleMetadata, double>(*grid, "angle_step_deg", where) != expected.angle_step_deg ||
-            meta_or_fail<openvdb::Int32Metadata, int>(*grid, "angles", where) != expected.angles ||
-            meta_or_fail<openvdb::Int32Metadata, int>(*grid, "segment", where) != expected.segment ||
-            meta_or_fail<openvdb::Int32Metadata, int>(*grid, "z_voxels", where) != l)
-            fail(where, "grid {} was swept on another lattice or for another key segment than the scene's", name);
-        if (meta_or_fail<openvdb::StringMetadata, std::string>(*grid, "scene_hash", where) != expected.scene_hash)
-            fail(where, "grid {} is the group of another scene (scene_hash differs)", name);
-        std::vector<std::array<int, 4>> level;
-        // Solid blocks of 8^3 poses and more are stored as tiles (pruneGrid): their boxes expand.
-        for (auto on = grid->cbeginValueOn(); on; ++on) {
-            const openvdb::CoordBBox box = on.getBoundingBox();
-            if (box.min().z() < 0 || box.max().z() >= expected.angles)
-                fail(where, "grid {} has poses at angle indices {}..{}, outside 0..{}", name, box.min().z(), box.max().z(), expected.angles - 1);
-            for (auto c = box.begin(); c; ++c) level.push_back({(*c).x(), (*c).y(), (*c).z(), l});
-        }
-        std::sort(level.begin(), level.end(), [](const auto& a, const auto& b) { return std::tie(a[2], a[1], a[0]) < std::tie(b[2], b[1], b[0]); });
-        poses.insert(poses.end(), level.begin(), level.end());
+        check_grid_lattice(*grid, expected, l, where);
+        std::vector<PoseRun> pieces = grid_runs(*grid, l);
+        for (const PoseRun& piece : pieces)
+            if (piece.k < 0 || piece.k >= expected.angles)
+                fail(where, "grid {} has poses at angle index {}, outside 0..{}", name, piece.k, expected.angles - 1);
+        for (const PoseRun& piece : pieces) group.add_run(piece);
     }
-    return poses;
+    return group;
 }
 
 GroupLattice read_group_lattice(const std::filesystem::path& path) {
@@ -174,21 +238,23 @@ GroupLattice read_group_lattice(const std::filesystem::path& path) {
     return lattice;
 }
 
-Json group_summary(const std::vector<Solution>& group, const GroupLattice& lattice) {
+Json group_summary(const SolutionGroup& group, const GroupLattice& lattice) {
     struct Angle {
         std::uint64_t count = 0;
-        double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+        int i0 = std::numeric_limits<int>::max(), i1 = std::numeric_limits<int>::min();
+        int j0 = std::numeric_limits<int>::max(), j1 = std::numeric_limits<int>::min();
     };
     std::map<int, Angle> by_angle;
-    for (const Solution& s : group) {
-        Angle& a = by_angle[s.k];
-        ++a.count;
-        a.x0 = std::min(a.x0, s.x), a.x1 = std::max(a.x1, s.x), a.y0 = std::min(a.y0, s.y), a.y1 = std::max(a.y1, s.y);
+    for (const PoseRun& r : group.runs()) {
+        Angle& a = by_angle[r.k];
+        a.count += r.size();
+        a.i0 = std::min(a.i0, r.i_first), a.i1 = std::max(a.i1, r.i_last), a.j0 = std::min(a.j0, r.j), a.j1 = std::max(a.j1, r.j);
     }
     const angles::AngleLattice angle_lattice{lattice.angle_step_deg, lattice.angles};
+    const double h = lattice.voxel;
     Json per_angle = Json::array();
     for (const auto& [k, a] : by_angle)
-        per_angle.push_back({{"k", k}, {"theta_deg", angle_lattice.wrapped_degrees(k)}, {"count", a.count}, {"x_m", {a.x0, a.x1}}, {"y_m", {a.y0, a.y1}}});
+        per_angle.push_back({{"k", k}, {"theta_deg", angle_lattice.wrapped_degrees(k)}, {"count", a.count}, {"x_m", {a.i0 * h, a.i1 * h}}, {"y_m", {a.j0 * h, a.j1 * h}}});
     return {{"segment", lattice.segment},
             {"solutions", group.size()},
             {"voxel_m", lattice.voxel},

@@ -13,7 +13,7 @@
 
 #include "src/results/result_json.hpp"
 #include "src/scene/scene.hpp"
-#include "src/sweep/problem.hpp"
+#include "src/sweep/solution_group.hpp"
 
 namespace amhv::results {
 
@@ -28,14 +28,15 @@ struct GroupLattice {
 
 // The lattice of key segment `segment`'s sweep.
 GroupLattice group_lattice(const Scene& scene, int segment, const PoseRange& range);
-// 64-bit FNV-1a of the resolved scene (resolved_toml), as 16 hex digits: which scene a group is of.
+// 64-bit FNV-1a of the resolved scene (resolved_toml, its inputs' paths relative to the scene's
+// folder), as 16 hex digits: which scene a group is of, wherever the project folder lies.
 std::string scene_hash(const Scene& scene);
 
 // Writes the group (each solution's i, j, k, l) to `path`.
-void write_group_vdb(const std::filesystem::path& path, const std::vector<Solution>& group, const GroupLattice& lattice);
-// Reads `path` back: the poses (i, j, k, l) in (l, k, j, i) order. Throws amhv::Error naming the
-// file when it is not a group of `expected` (another lattice, segment or scene, a missing grid).
-std::vector<std::array<int, 4>> read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected);
+void write_group_vdb(const std::filesystem::path& path, const SolutionGroup& group, const GroupLattice& lattice);
+// Reads `path` back as the group it holds. Throws amhv::Error naming the file when it is not a
+// group of `expected` (another lattice, segment or scene, a missing grid, an angle off the lattice).
+SolutionGroup read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected);
 
 // The lattice a group file says it is on (its grids' metadata), for readers without the scene.
 // Throws amhv::Error naming the file when it is not an amhv solution group.
@@ -43,6 +44,6 @@ GroupLattice read_group_lattice(const std::filesystem::path& path);
 
 // segment_N/group_summary.json: the count and the bounding box of x and y per angle (angles with
 // members only), the heights, and the total: small for pages and scripts.
-Json group_summary(const std::vector<Solution>& group, const GroupLattice& lattice);
+Json group_summary(const SolutionGroup& group, const GroupLattice& lattice);
 
 }  // namespace amhv::results

@@ -10,7 +10,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
-#include "src/results/solutions_csv.hpp"
+#include "src/results/group_vdb.hpp"
 
 namespace amhv::results {
 
@@ -22,20 +22,22 @@ nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 // The true pose of B relative to A in this key segment (docs/method.md section 4's form) and
 // whether the group holds a solution within one voxel on x and y and one angle step of it.
-Json truth_json(const Scene& scene, const SweepProblem& problem, const std::vector<Solution>& group) {
+Json truth_json(const Scene& scene, const SweepProblem& problem, const SolutionGroup& group) {
     const Placement& t = *scene.truth;
     const double yaw = angles::radians(t.yaw_deg);
     const Eigen::Vector2d ca(problem.a.root.x(), problem.a.root.y()), cb(problem.b.root.x(), problem.b.root.y());
     const Eigen::Vector2d offset = Eigen::Rotation2Dd(yaw) * cb + Eigen::Vector2d(t.x, t.y) - ca;
     const double h = problem.voxel, step = problem.angle_step_deg;
+    const PoseDescriber describe = describer(problem);
     double nearest = std::numeric_limits<double>::infinity();
     bool within = false;
-    for (const Solution& s : group) {
+    group.for_each([&](const PoseIndex& p) {
+        const Solution s = describe(p);
         const double turn = angles::degrees_apart(s.theta_deg, t.yaw_deg);
         const double dx = std::abs(s.x - offset.x()), dy = std::abs(s.y - offset.y());
         within = within || (dx <= h + 1e-9 && dy <= h + 1e-9 && turn <= step + 1e-9);
         if (turn <= step + 1e-9) nearest = std::min(nearest, std::hypot(dx, dy));
-    }
+    });
     return {{"x", offset.x()},
             {"y", offset.y()},
             {"theta_deg", std::remainder(t.yaw_deg, 360.0)},
@@ -97,15 +99,14 @@ void check_sampling(const nlohmann::json& p, const Scene& scene, const std::stri
         fail(where, "was swept over another x_range / y_range than the scene's");
 }
 
-KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key) {
+KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key, const Scene& scene) {
     KeySweep k;
     k.index = key.index;
     const auto ra = s.at("root_m").at("A").get<std::array<double, 3>>(), rb = s.at("root_m").at("B").get<std::array<double, 3>>();
     k.root_a = Vec3(ra[0], ra[1], ra[2]);
     k.root_b = Vec3(rb[0], rb[1], rb[2]);
     const auto fa = s.at("facing").at("A").get<std::array<double, 2>>(), fb = s.at("facing").at("B").get<std::array<double, 2>>();
-    k.facing_a = Eigen::Vector2d(fa[0], fa[1]);
-    k.facing_b = Eigen::Vector2d(fb[0], fb[1]);
+    k.describe = {scene.sampling.voxel, scene.sampling.angle_step_deg, Eigen::Vector2d(fa[0], fa[1]), Eigen::Vector2d(fb[0], fb[1])};
     k.poses_tested = s.at("poses_tested").get<std::uint64_t>();
     const auto& rej = s.at("rejected");
     k.rejected = {rej.at("contact").get<std::uint64_t>(), rej.at("dictionary").get<std::uint64_t>(), rej.at("fidelity").get<std::uint64_t>(),
@@ -113,39 +114,19 @@ KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key) {
     return k;
 }
 
-// The rows of a group read back must be what a sweep of this segment writes: on the lattice, inside
-// the swept range, in (theta, y, x) order without repeats, and with the descriptors of their pose.
-// A row that fails names its line; a hand-edited or foreign file is refused, not trusted.
-void check_group(const std::vector<Solution>& group, const nlohmann::json& entry, const KeySweep& k, const Scene& scene,
-                 const fs::path& csv) {
+// A group read back must lie inside the range its segment was swept over (result.json's entry):
+// a pose outside it was not decided by this sweep, so the file is refused, not trusted.
+void check_group(const SolutionGroup& group, const nlohmann::json& entry, const Scene& scene, const fs::path& file) {
     const double h = scene.sampling.voxel;
-    SweepProblem problem;  // what describe() reads: the facings and the sampling
-    problem.voxel = h;
-    problem.angle_step_deg = scene.sampling.angle_step_deg;
-    problem.a.facing = k.facing_a;
-    problem.b.facing = k.facing_b;
     const auto x_m = entry.at("range").at("x_m").get<std::array<double, 2>>(), y_m = entry.at("range").at("y_m").get<std::array<double, 2>>();
     const int i_first = int(std::lround(x_m[0] / h)), i_last = int(std::lround(x_m[1] / h));
     const int j_first = int(std::lround(y_m[0] / h)), j_last = int(std::lround(y_m[1] / h));
-    const auto z_m = entry.at("range").at("z_m").get<std::array<double, 2>>();
-    const int l_first = int(std::lround(z_m[0] / h)), l_last = int(std::lround(z_m[1] / h));
-    constexpr double kPrinted = 2e-6;  // the CSV's 6 decimals
-    std::array<int, 4> previous{std::numeric_limits<int>::min(), 0, 0, 0};
-    for (std::size_t r = 0; r < group.size(); ++r) {
-        const Solution& s = group[r];
-        const std::string where = fmt::format("{}:{}", csv.string(), r + 2);
-        if (std::abs(s.x - s.i * h) > kPrinted || std::abs(s.y - s.j * h) > kPrinted || std::abs(s.z - s.l * h) > kPrinted)
-            fail(where, "pose ({}, {}, {}) is not on the sweep's {} m lattice", s.x, s.y, s.z, h);
-        if (s.i < i_first || s.i > i_last || s.j < j_first || s.j > j_last || s.l < l_first || s.l > l_last)
-            fail(where, "pose ({}, {}, {}) lies outside the range the segment was swept over", s.x, s.y, s.z);
-        const std::array<int, 4> order{s.l, s.k, s.j, s.i};
-        if (order <= previous) fail(where, "rows are not in the sweep's (z, theta, y, x) order, or repeat a pose");
-        previous = order;
-        const Solution expected = describe(problem, s.i, s.j, s.k, s.l);
-        if (std::abs(expected.distance - s.distance) > kPrinted || angles::degrees_apart(expected.theta_a_deg, s.theta_a_deg) > kPrinted ||
-            angles::degrees_apart(expected.theta_b_deg, s.theta_b_deg) > kPrinted)
-            fail(where, "the descriptors L, thetaA, thetaB are not those of the pose: the row was not written by this sweep");
-    }
+    for (const PoseRun& r : group.runs())
+        if (r.i_first < i_first || r.i_last > i_last || r.j < j_first || r.j > j_last)
+            fail(file.string(), "holds poses at x {}..{} m, y {} m (theta index {}), outside the range x [{}, {}] m, y [{}, {}] m the segment was swept over",
+                 r.i_first * h, r.i_last * h, r.j * h, r.k, x_m[0], x_m[1], y_m[0], y_m[1]);
+    if (group.size() != entry.at("solutions").get<std::uint64_t>())
+        fail(file.string(), "holds {} poses but result.json says the group has {} solutions", group.size(), entry.at("solutions").get<std::uint64_t>());
 }
 
 }  // namespace
@@ -168,7 +149,7 @@ Json result_header(const Scene& scene, const std::string& backend, const std::st
 }
 
 Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
-                        const std::vector<Solution>& solutions, std::uint64_t limited, const SegmentFiles& files, const Json& timings) {
+                        const SolutionGroup& group, std::uint64_t limited, const SegmentFiles& files, const Json& timings) {
     Json s;
     s["index"] = segment.index;
     s["type"] = segment.type.name();
@@ -176,7 +157,7 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
     s["frames_b"] = {segment.b[0], segment.b[1]};
     s["normalised_frames"] = problem.frames();
     s["poses_tested"] = problem.range.size();
-    s["solutions"] = solutions.size();
+    s["solutions"] = group.size();
     s["rejected"] = {{"contact", result.rejected[0]}, {"dictionary", result.rejected[1]}, {"fidelity", result.rejected[2]},
                      {"visibility", result.rejected[3]}, {"limits", limited}};
     s["range"] = {{"x_m", {problem.range.i_first * problem.voxel, problem.range.i_last * problem.voxel}},
@@ -195,10 +176,10 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
     s["files"] = {{"group", fmt::format("segment_{}/group.vdb", segment.index)},
                   {"group_bytes", files.group_bytes},
                   {"group_summary", fmt::format("segment_{}/group_summary.json", segment.index)},
-                  {"solutions", fmt::format("segment_{}/solutions.csv", segment.index)},
+                  {"solutions", files.csv ? Json(fmt::format("segment_{}/solutions.csv", segment.index)) : Json(nullptr)},
                   {"feasibility", files.maps ? nlohmann::json(fmt::format("segment_{}/feasibility/", segment.index)) : nlohmann::json(nullptr)},
                   {"feasibility_files", files.feasibility_files}};
-    if (scene.truth) s["truth"] = truth_json(scene, problem, solutions);
+    if (scene.truth) s["truth"] = truth_json(scene, problem, group);
     if (!timings.is_null()) s["timings_s"] = timings;
     return s;
 }
@@ -235,6 +216,8 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"transforms", "transforms.json"},
                       {"meshes", files.frames ? nlohmann::json("frames/NNNN.ply") : nlohmann::json(nullptr)},
                       {"mesh_files", files.mesh_files},
+                      {"scene", files.glb ? nlohmann::json("scene.glb") : nlohmann::json(nullptr)},
+                      {"scene_bytes", files.glb_bytes},
                       {"paths", {"paths.svg", "paths.png"}},
                       {"views", views_json(files.view_frames)}};
 }
@@ -251,18 +234,18 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
         fail(where, "is not valid JSON ({})", e.what());
     }
     SweepRecord record;
-    const angles::AngleLattice lattice{scene.sampling.angle_step_deg, scene.sampling.angles()};
     try {
         check_sampling(json.at("parameters"), scene, where);
         for (const KeySegment& key : scene.segments) {
             const nlohmann::json& s = matching_entry(json.at("segments"), key, where);
-            KeySweep k = key_sweep_of(s, key);
-            const fs::path csv = dir / fmt::format("segment_{}", key.index) / "solutions.csv";
-            k.solutions = read_solutions_csv(csv, scene.sampling.voxel, lattice);
-            check_group(k.solutions, s, k, scene, csv);
-            if (k.solutions.size() != s.at("solutions").get<std::uint64_t>())
-                fail(csv.string(), "has {} rows but result.json says the group has {} solutions", k.solutions.size(),
-                     s.at("solutions").get<std::uint64_t>());
+            KeySweep k = key_sweep_of(s, key, scene);
+            const fs::path group_file = dir / fmt::format("segment_{}", key.index) / "group.vdb";
+            const auto z_m = s.at("range").at("z_m").get<std::array<double, 2>>();
+            GroupLattice lattice = group_lattice(scene, key.index, PoseRange{});
+            lattice.z_first = int(std::lround(z_m[0] / scene.sampling.voxel));
+            lattice.z_last = int(std::lround(z_m[1] / scene.sampling.voxel));
+            k.group = read_group_vdb(group_file, lattice);
+            check_group(k.group, s, scene, group_file);
             record.segments.push_back(Json::parse(s.dump()));
             record.sweeps.push_back(std::move(k));
         }

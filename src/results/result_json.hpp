@@ -27,17 +27,20 @@ struct SegmentFiles {
     bool maps = false;         // feasibility maps written
     int feasibility_files = 0;
     std::uint64_t group_bytes = 0;  // segment_N/group.vdb
+    bool csv = false;               // segment_N/solutions.csv written (--csv)
 };
 
-// One key segment's entry after its sweep (`solutions` within the intent's limits, `limited` the
+// One key segment's entry after its sweep (`group` within the intent's limits, `limited` the
 // solutions of the sweep outside them); `timings` (mhv, sweep, output, stages) when not null.
 Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
-                        const std::vector<Solution>& solutions, std::uint64_t limited, const SegmentFiles& files, const Json& timings);
+                        const SolutionGroup& group, std::uint64_t limited, const SegmentFiles& files, const Json& timings);
 
 // What the edit wrote beside result.json.
 struct EditFiles {
     bool frames = false;
     int mesh_files = 0;
+    bool glb = false;  // scene.glb
+    std::uint64_t glb_bytes = 0;
     std::vector<int> view_frames;  // views/key_N.png: the output frame each shows
 };
 
@@ -46,7 +49,7 @@ struct EditFiles {
 void add_edit(Json& json, const EditResult& edit, const EditFiles& files);
 
 // The key segments' sweeps as `amhv sweep` (or `amhv edit`) wrote them into `dir`, for the scene
-// they must match: result.json's entries and each segment_N/solutions.csv.
+// they must match: result.json's entries and each segment_N/group.vdb.
 struct SweepRecord {
     std::vector<KeySweep> sweeps;
     Json segments = Json::array();  // result.json's "segments"

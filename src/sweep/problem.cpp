@@ -7,14 +7,11 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "src/sweep/solution_group.hpp"
 
 namespace amhv {
 
 namespace {
-
-double signed_angle_deg(const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
-    return angles::degrees(std::atan2(from.x() * to.y() - from.y() * to.x(), from.dot(to)));
-}
 
 bool is_lattice_aligned(const VoxelGrid& grid, double voxel) {
     if (grid.voxel != voxel) return false;
@@ -151,36 +148,6 @@ std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected) {
     return fmt::format("contact {}, dictionary {}, fidelity {}, visibility {}", rejected[0], rejected[1], rejected[2], rejected[3]);
 }
 
-Solution describe(const SweepProblem& problem, int i, int j, int k, int l) {
-    Solution s;
-    s.i = i;
-    s.j = j;
-    s.k = k;
-    s.l = l;
-    s.x = i * problem.voxel;
-    s.y = j * problem.voxel;
-    s.z = l * problem.voxel;
-    s.theta_deg = angles::wrap_degrees(problem.angle_deg(k));
-    s.distance = std::hypot(s.x, s.y);
-    if (s.distance > 0) {
-        Eigen::Vector2d towards_b(s.x, s.y);
-        double theta = angles::radians(problem.angle_deg(k));
-        Eigen::Vector2d facing_b = Eigen::Rotation2Dd(theta) * problem.b.facing;
-        s.theta_a_deg = angles::wrap_degrees(signed_angle_deg(problem.a.facing, towards_b));
-        s.theta_b_deg = angles::wrap_degrees(signed_angle_deg(facing_b, -towards_b));
-    }
-    return s;
-}
-
-std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& result) {
-    std::vector<Solution> list;
-    const PoseRange& r = result.range;
-    for (int l = r.z_first; l <= r.z_last; ++l)
-        for (int k = 0; k < r.angles; ++k)
-            for (int j = r.j_first; j <= r.j_last; ++j)
-                for (int i = r.i_first; i <= r.i_last; ++i)
-                    if (result.at(i, j, k, l) == PoseOutcome::Solution) list.push_back(describe(problem, i, j, k, l));
-    return list;
-}
+Solution describe(const SweepProblem& problem, int i, int j, int k, int l) { return describer(problem)(PoseIndex{i, j, k, l}); }
 
 }  // namespace amhv

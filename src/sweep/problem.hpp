@@ -135,8 +135,6 @@ std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected);
 
 // The paper's descriptors of pose (i, j, k, l).
 Solution describe(const SweepProblem& problem, int i, int j, int k, int l = 0);
-// All solutions in the fixed order (z, theta, y, x).
-std::vector<Solution> solutions(const SweepProblem& problem, const SweepResult& result);
 
 class Sweeper {
 public:

@@ -1,0 +1,96 @@
+#pragma once
+// A key segment's solution group as the pipeline holds it: a set on the sweep's own lattice (pose
+// (i, j, k, l): x = i h, y = j h, theta = k step, B raised by l h), stored as runs of consecutive i
+// along (l, k, j) rows. A group is a few solid blobs: at 10 mm / 2 deg one segment's 3.75 million
+// members lie in 62,656 runs, so a run costs 20 bytes where a listed pose with its descriptors cost
+// 72. The members keep the sweep's order (z, theta, y, x); member n is the n-th pose in that order
+// (the DP's state index). The descriptors (L, thetaA, thetaB) are computed from a pose when needed.
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "src/sweep/problem.hpp"
+
+namespace amhv {
+
+struct PoseIndex {
+    int i = 0, j = 0, k = 0, l = 0;
+    bool operator==(const PoseIndex&) const = default;
+};
+
+// i_first..i_last at row (l, k, j).
+struct PoseRun {
+    std::int32_t l = 0, k = 0, j = 0, i_first = 0, i_last = 0;
+    std::uint64_t size() const { return std::uint64_t(i_last - i_first + 1); }
+};
+
+class SolutionGroup {
+public:
+    // Appends poses in (l, k, j, i) order, each after the last (throws amhv::Error otherwise: a
+    // group is a set in the sweep's order); a pose next to the last run extends it.
+    void add(const PoseIndex& pose) { add_run({pose.l, pose.k, pose.j, pose.i, pose.i}); }
+    void add_run(const PoseRun& run);
+
+    std::uint64_t size() const { return starts_.empty() ? 0 : starts_.back() + runs_.back().size(); }
+    bool empty() const { return runs_.empty(); }
+    const std::vector<PoseRun>& runs() const { return runs_; }
+    // Member n (0 <= n < size()) in the sweep's order.
+    PoseIndex at(std::uint64_t n) const;
+    bool contains(const PoseIndex& pose) const;
+    bool any_raised() const;  // some member has l != 0
+    std::size_t memory_bytes() const { return runs_.capacity() * sizeof(PoseRun) + starts_.capacity() * sizeof(std::uint64_t); }
+
+    // f(PoseIndex) for every member in order.
+    template <typename F>
+    void for_each(F&& f) const {
+        for (const PoseRun& r : runs_)
+            for (int i = r.i_first; i <= r.i_last; ++i) f(PoseIndex{i, r.j, r.k, r.l});
+    }
+    // f(PoseIndex) for members first..last-1 in order.
+    template <typename F>
+    void for_range(std::uint64_t first, std::uint64_t last, F&& f) const {
+        if (first >= last) return;
+        std::size_t r = run_of(first);
+        std::uint64_t n = first;
+        for (; n < last; ++r) {
+            const PoseRun& run = runs_[r];
+            const int from = run.i_first + int(n - starts_[r]);
+            for (int i = from; i <= run.i_last && n < last; ++i, ++n) f(PoseIndex{i, run.j, run.k, run.l});
+        }
+    }
+
+    bool operator==(const SolutionGroup& other) const;
+
+private:
+    std::size_t run_of(std::uint64_t n) const;  // the run holding member n
+    std::vector<PoseRun> runs_;
+    std::vector<std::uint64_t> starts_;  // member index of each run's first pose
+};
+
+// The sweep's solutions, less those `keep` refuses (the editor's limits): built one (l, k) slice at
+// a time from the outcomes, never as a list of poses.
+SolutionGroup solution_group(const SweepResult& result);
+template <typename Keep>
+SolutionGroup solution_group(const SweepResult& result, Keep&& keep) {
+    SolutionGroup group;
+    const PoseRange& r = result.range;
+    for (int l = r.z_first; l <= r.z_last; ++l)
+        for (int k = 0; k < r.angles; ++k)
+            for (int j = r.j_first; j <= r.j_last; ++j) {
+                const PoseOutcome* row = &result.outcomes[result.index(r.i_first, j, k, l)];
+                for (int i = r.i_first; i <= r.i_last; ++i)
+                    if (row[i - r.i_first] == PoseOutcome::Solution && keep(PoseIndex{i, j, k, l})) group.add({i, j, k, l});
+            }
+    return group;
+}
+
+// What the descriptors of a pose depend on: the lattice and the two facings (docs/method.md section 6).
+struct PoseDescriber {
+    double voxel = 0.01, angle_step_deg = 2;
+    Eigen::Vector2d facing_a = Eigen::Vector2d::UnitX(), facing_b = Eigen::Vector2d::UnitX();
+    Solution operator()(const PoseIndex& p) const;
+};
+PoseDescriber describer(const SweepProblem& problem);
+
+}  // namespace amhv
