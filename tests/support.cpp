@@ -1,5 +1,11 @@
 #include "support.hpp"
 
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+#include <numbers>
+
+#include "src/voxelise/voxelise.hpp"
+
 #include <cstdlib>
 
 #include <array>
@@ -99,5 +105,49 @@ int one_line_error(const CommandResult& result) {
     while (std::getline(lines, line)) errors += line.rfind("amhv: error: ", 0) == 0;
     return errors;
 }
+
+// The union of the parts of `source`'s frame `number` selected by `keep`, moved into the scene.
+MeshFrame moved_parts(ObjectSource& source, const nlohmann::json& transform, bool (*keep)(const std::string&)) {
+    MeshFrame out;
+    for (const BodyPart& part : source.frame_parts(transform.at("source").get<int>()))
+        if (keep(part.name)) out.mesh.append(part.mesh);
+    const Eigen::Rotation2Dd rotation(transform.at("yaw_deg").get<double>() * std::numbers::pi / 180);
+    const Eigen::Vector2d shift(transform.at("x").get<double>(), transform.at("y").get<double>());
+    for (Vec3& v : out.mesh.vertices) {
+        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + shift;
+        v = Vec3(p.x(), p.y(), v.z() + transform.value("z", 0.0));
+    }
+    out.source = fmt::format("source frame {}", transform.at("source").get<int>());
+    return out;
+}
+
+
+// Voxels (edge h, on the scene lattice) whose centre lies inside `a` and, within `reach` voxels
+// (26-neighbourhood steps), inside `b`.
+std::size_t shared_voxels(const MeshFrame& a, const MeshFrame& b, double h, Voxeliser& voxeliser, int reach) {
+    const Box3 box_a = a.mesh.bounds(), box_b = b.mesh.bounds();
+    if ((box_a.min.array() > box_b.max.array()).any() || (box_b.min.array() > box_a.max.array()).any()) return 0;
+    Box3 both = box_a;
+    both.extend(box_b);
+    const Amhv volume = voxelise(prepare_voxelisation({&a, &b}, grid_covering(both, h, "overlap")), voxeliser);
+    const VoxelGrid& g = volume.grid();
+    std::size_t shared = 0;
+    for (int z = 0; z < g.dims[2]; ++z)
+        for (int y = 0; y < g.dims[1]; ++y)
+            for (int x = 0; x < g.dims[0]; ++x) {
+                if (!(volume.word(0, g.index(x, y, z)) & 1u)) continue;
+                bool near = false;
+                for (int dz = -reach; dz <= reach && !near; ++dz)
+                    for (int dy = -reach; dy <= reach && !near; ++dy)
+                        for (int dx = -reach; dx <= reach && !near; ++dx) {
+                            const int u = x + dx, w = y + dy, q = z + dz;
+                            near = u >= 0 && w >= 0 && q >= 0 && u < g.dims[0] && w < g.dims[1] && q < g.dims[2] &&
+                                   (volume.word(0, g.index(u, w, q)) & 2u);
+                        }
+                shared += near;
+            }
+    return shared;
+}
+
 
 }  // namespace amhv::test

@@ -8,6 +8,10 @@
 
 #include "src/core/geometry.hpp"
 #include "src/gpu/context.hpp"
+#include "src/scene/segment.hpp"
+#include "src/voxelise/voxelise.hpp"
+
+#include <nlohmann/json.hpp>
 
 namespace amhv::test {
 
@@ -55,5 +59,12 @@ std::string amhv_command();
 CommandResult validate_gltf(const std::filesystem::path& file);
 // How many lines of the output are "amhv: error: ..." lines.
 int one_line_error(const CommandResult& result);
+
+// The union of the parts of `source`'s frame (transforms.json's `source`) selected by `keep`, moved
+// into the scene by one object's entry of transforms.json (x, y, z, yaw_deg).
+MeshFrame moved_parts(ObjectSource& source, const nlohmann::json& transform, bool (*keep)(const std::string&));
+// Voxels (edge h, on the scene lattice) whose centre lies inside `a` and, within `reach` voxels
+// (26-neighbourhood steps), inside `b`.
+std::size_t shared_voxels(const MeshFrame& a, const MeshFrame& b, double h, Voxeliser& voxeliser, int reach = 0);
 
 }  // namespace amhv::test

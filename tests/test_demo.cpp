@@ -2,6 +2,7 @@
 // CMU handshake, separated as if captured apart, restored by `amhv demo`. The solution group holds
 // the true relative placement; in the edited scene the right hands touch at every handshake frame
 // and the bodies (all but the right arms) never share a voxel at any output frame.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -21,50 +22,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The union of the parts of `source`'s frame `number` selected by `keep`, moved into the scene.
-MeshFrame moved_parts(ObjectSource& source, const nlohmann::json& transform, bool (*keep)(const std::string&)) {
-    MeshFrame out;
-    for (const BodyPart& part : source.frame_parts(transform.at("source").get<int>()))
-        if (keep(part.name)) out.mesh.append(part.mesh);
-    const Eigen::Rotation2Dd rotation(transform.at("yaw_deg").get<double>() * std::numbers::pi / 180);
-    const Eigen::Vector2d shift(transform.at("x").get<double>(), transform.at("y").get<double>());
-    for (Vec3& v : out.mesh.vertices) {
-        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + shift;
-        v = Vec3(p.x(), p.y(), v.z());
-    }
-    out.source = fmt::format("source frame {}", transform.at("source").get<int>());
-    return out;
-}
-
 bool right_hand(const std::string& name) { return name == "right_hand"; }
+bool whole_body(const std::string&) { return true; }
 bool fidelity_part(const std::string& name) { return name != "right_hand" && name != "right_forearm" && name != "right_upper_arm"; }
-
-// Voxels (edge h, on the scene lattice) whose centre lies inside `a` and, within `reach` voxels
-// (26-neighbourhood steps), inside `b`.
-std::size_t shared_voxels(const MeshFrame& a, const MeshFrame& b, double h, Voxeliser& voxeliser, int reach = 0) {
-    const Box3 box_a = a.mesh.bounds(), box_b = b.mesh.bounds();
-    if ((box_a.min.array() > box_b.max.array()).any() || (box_b.min.array() > box_a.max.array()).any()) return 0;
-    Box3 both = box_a;
-    both.extend(box_b);
-    const Amhv volume = voxelise(prepare_voxelisation({&a, &b}, grid_covering(both, h, "overlap")), voxeliser);
-    const VoxelGrid& g = volume.grid();
-    std::size_t shared = 0;
-    for (int z = 0; z < g.dims[2]; ++z)
-        for (int y = 0; y < g.dims[1]; ++y)
-            for (int x = 0; x < g.dims[0]; ++x) {
-                if (!(volume.word(0, g.index(x, y, z)) & 1u)) continue;
-                bool near = false;
-                for (int dz = -reach; dz <= reach && !near; ++dz)
-                    for (int dy = -reach; dy <= reach && !near; ++dy)
-                        for (int dx = -reach; dx <= reach && !near; ++dx) {
-                            const int u = x + dx, w = y + dy, q = z + dz;
-                            near = u >= 0 && w >= 0 && q >= 0 && u < g.dims[0] && w < g.dims[1] && q < g.dims[2] &&
-                                   (volume.word(0, g.index(u, w, q)) & 2u);
-                        }
-                shared += near;
-            }
-    return shared;
-}
 
 TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     test::TempDir dir;
@@ -99,15 +59,30 @@ TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
             ++handshake_frames;
             // Touching at the sweep's resolution: the sweep pulls B's voxels onto A's lattice, so the
             // hands re-voxelised in the scene meet within one voxel.
-            EXPECT_GT(shared_voxels(moved_parts(a, frame.at("A"), right_hand), moved_parts(b, frame.at("B"), right_hand), scene.sampling.voxel,
+            EXPECT_GT(test::shared_voxels(test::moved_parts(a, frame.at("A"), right_hand), test::moved_parts(b, frame.at("B"), right_hand), scene.sampling.voxel,
                                     voxeliser, 1),
                       0u)
                 << "the right hands do not touch at output frame " << k;
         }
-        EXPECT_EQ(shared_voxels(moved_parts(a, frame.at("A"), fidelity_part), moved_parts(b, frame.at("B"), fidelity_part), scene.sampling.voxel, voxeliser), 0u)
+        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), fidelity_part), test::moved_parts(b, frame.at("B"), fidelity_part), scene.sampling.voxel, voxeliser), 0u)
             << "the bodies interpenetrate at output frame " << k << " (" << frame.at("segment").get<std::string>() << ")";
+        // Transitions: the whole bodies never share a voxel (re-voxelised here from transforms.json,
+        // independent of the edit's own check).
+        if (frame.at("segment").get<std::string>().rfind("transition", 0) == 0) {
+            EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole_body), test::moved_parts(b, frame.at("B"), whole_body), scene.sampling.voxel, voxeliser), 0u)
+                << "the whole bodies overlap at transitional output frame " << k;
+        }
     }
     EXPECT_EQ(handshake_frames, 40);
+    // The edit found them overlapping on the paper's paths and separated them.
+    int before = 0;
+    for (const auto& t : result.at("transitions")) {
+        EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
+        before += t.at("before_separation").at("frames_overlapping").get<int>();
+    }
+    EXPECT_GT(before, 0);
+    const std::string checks = test::read_text(out / "frames.csv");
+    EXPECT_EQ(std::count(checks.begin(), checks.end(), '\n'), 284);  // the header and 283 output frames
     // The whole scene in one glTF file the Khronos validator accepts.
     const auto valid = test::validate_gltf(out / "scene.glb");
     EXPECT_EQ(valid.exit_code, 0) << valid.output;
@@ -146,10 +121,10 @@ TEST(Demo, RestoresARealHighFiveFromAnotherSkeleton) {
     for (const auto& frame : transforms.at("output")) {
         if (frame.at("segment").get<std::string>() == "key 1") {
             ++key_frames;
-            touching += shared_voxels(moved_parts(a, frame.at("A"), right_hand), moved_parts(b, frame.at("B"), right_hand), scene.sampling.voxel,
+            touching += test::shared_voxels(test::moved_parts(a, frame.at("A"), right_hand), test::moved_parts(b, frame.at("B"), right_hand), scene.sampling.voxel,
                                       voxeliser, 1) > 0;
         }
-        EXPECT_EQ(shared_voxels(moved_parts(a, frame.at("A"), fidelity_part), moved_parts(b, frame.at("B"), fidelity_part), scene.sampling.voxel, voxeliser), 0u)
+        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), fidelity_part), test::moved_parts(b, frame.at("B"), fidelity_part), scene.sampling.voxel, voxeliser), 0u)
             << "the bodies interpenetrate at output frame " << frame.at("frame").get<int>();
     }
     EXPECT_EQ(key_frames, 9);

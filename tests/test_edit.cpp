@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -16,7 +17,9 @@
 
 #include "src/body/shapes.hpp"
 #include "src/edit/timeline.hpp"
+#include "host/reference/voxelise_reference.hpp"
 #include "src/scene/scene.hpp"
+#include "src/scene/segment.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -28,19 +31,27 @@ using test::read_text;
 // A's root walks along +x, stands still over frames 15..24 while reaching forward with a hand,
 // then walks on (40 frames). B was captured elsewhere and later (45 frames): it walks along +y and
 // stands over frames 20..29 reaching along +y. B's capture frame is placed 5 m away.
+// A step of 2 cm a frame, standing still for frames stop_first..stop_last.
+double walk(int f, int stop_first, int stop_last) {
+    const double step = 0.02;
+    if (f < stop_first) return step * f;
+    if (f <= stop_last) return step * stop_first;
+    return step * (stop_first + f - stop_last);
+}
+
+// Where each performer of EditFixture stands at frame f (A: 40 frames, B: 45): by default A walks
+// along x and stops for frames 15-24, B along y and stops for 20-29.
+struct FixtureWalks {
+    std::function<Eigen::Vector2d(int)> a = [](int f) { return Eigen::Vector2d(walk(f, 15, 24), 0); };
+    std::function<Eigen::Vector2d(int)> b = [](int f) { return Eigen::Vector2d(0, walk(f, 20, 29)); };
+};
+
 struct EditFixture {
     test::TempDir dir;
     fs::path scene;
 
-    static double walk(int f, int stop_first, int stop_last) {
-        const double step = 0.02;
-        if (f < stop_first) return step * f;
-        if (f <= stop_last) return step * stop_first;
-        return step * (stop_first + f - stop_last);
-    }
-
     // `b_floor`: B's capture sits this much higher (a camera that disagrees on the floor).
-    explicit EditFixture(const std::string& type = "0&0a", const std::string& extra = "", double b_floor = 0) {
+    explicit EditFixture(const std::string& type = "0&0a", const std::string& extra = "", double b_floor = 0, const FixtureWalks& walks = FixtureWalks()) {
         const fs::path root = dir.path();
         for (const char* sub : {"a", "a_labels", "b", "b_labels"}) fs::create_directories(root / sub);
         auto body = [](const Eigen::Vector2d& at, const Eigen::Vector2d& forward, double floor, const fs::path& mesh, const fs::path& labels) {
@@ -48,10 +59,9 @@ struct EditFixture {
             test::write_labelled_obj(mesh, labels, {{"body", shapes::capsule({at.x(), at.y(), 0.4 + floor}, {at.x(), at.y(), 1.4 + floor}, 0.2, 3, 10)},
                                                     {"hand", shapes::sphere({hand.x(), hand.y(), 1.2 + floor}, 0.06, 6, 10)}});
         };
-        for (int f = 0; f < 40; ++f)
-            body({walk(f, 15, 24), 0}, {1, 0}, 0, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
+        for (int f = 0; f < 40; ++f) body(walks.a(f), {1, 0}, 0, root / "a" / fmt::format("{:04d}.obj", f), root / "a_labels" / fmt::format("{:04d}.txt", f));
         for (int f = 0; f < 45; ++f)
-            body({0, walk(f, 20, 29)}, {0, 1}, b_floor, root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f));
+            body(walks.b(f), {0, 1}, b_floor, root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f));
         scene = root / "scene.toml";
         std::ofstream(scene) << fmt::format(R"([sampling]
 voxel = 0.03
@@ -165,6 +175,49 @@ TEST(Edit, SceneGlbPlaysEveryOutputFrame) {
     ASSERT_EQ(skipped.exit_code, 0) << skipped.output;
     EXPECT_FALSE(fs::exists(fixture.dir.path() / "none" / "scene.glb"));
     EXPECT_TRUE(read_json(fixture.dir.path() / "none" / "result.json").at("output").at("scene").is_null());
+}
+
+// A transition that runs B through A: A stands; after the handshake B, facing A, walks on at 4 cm a
+// frame, straight through where A stands. The paper's paths put one inside the other; the edit
+// separates them (checked here from transforms.json alone, re-voxelised by the CPU reference) or
+// names the transition it cannot free. The check is the same on both backends, frame by frame.
+TEST(Edit, ATransitionThroughThePartnerIsSeparated) {
+    FixtureWalks walks;
+    walks.a = [](int) { return Eigen::Vector2d(0, 0); };
+    walks.b = [](int f) { return Eigen::Vector2d(0, f < 30 ? 0.0 : 0.04 * (f - 29)); };
+    EditFixture fixture("0&0a", "prefer = { distance_m = 0.6, thetaA_deg = 0.0, thetaB_deg = 0.0 }", 0, walks);
+    const fs::path root = fixture.dir.path();
+    const fs::path& scene = fixture.scene;
+    const std::string quoted = fmt::format("'{}'", scene.string());
+    for (const char* backend : {"vulkan", "cpu"}) {
+        auto run = test::run_amhv(fmt::format("edit {} --backend {} --allow-transition-overlap --no-frames --no-glb --no-timings --out '{}'", quoted,
+                                              backend, (root / backend).string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+    }
+    EXPECT_EQ(read_text(root / "cpu/frames.csv"), read_text(root / "vulkan/frames.csv"));
+    const auto kept = read_json(root / "vulkan/result.json").at("transitions");
+    ASSERT_EQ(kept.size(), 2u);
+    EXPECT_GT(kept[1].at("frames_overlapping").get<int>(), 3) << kept.dump();  // the paper's path runs B through A
+    EXPECT_EQ(kept[1].at("separation_rounds").get<int>(), 0);
+
+    auto run = test::run_amhv(fmt::format("edit {} --no-frames --no-glb --no-timings --out '{}'", quoted, (root / "separated").string()));
+    if (run.exit_code != 0) {
+        EXPECT_NE(run.output.find("transition 1 (output frames"), std::string::npos) << run.output;
+        EXPECT_NE(run.output.find("--allow-transition-overlap"), std::string::npos) << run.output;
+        return;
+    }
+    const auto result = read_json(root / "separated/result.json");
+    for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
+    EXPECT_GT(result.at("transitions")[1].at("separation_rounds").get<int>(), 0);
+    const Scene loaded = load_scene(scene);
+    ObjectSource a(loaded.a), b(loaded.b);
+    ReferenceVoxeliser voxeliser;
+    auto whole = [](const std::string&) { return true; };
+    for (const auto& frame : read_json(root / "separated/transforms.json").at("output")) {
+        if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
+        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
+            << "output frame " << frame.at("frame").get<int>();
+    }
 }
 
 TEST(Edit, TimelineNormalisesEveryPairOfSegments) {

@@ -12,7 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenvdb-dev libboost-iostreams-dev
   python3 python3-openvdb universal-ctags time
-  libtinygltf-dev
+  libtinygltf-dev libnanoflann-dev
 )
 # Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
 # nodejs bundles npm and conflicts with Debian's npm package).

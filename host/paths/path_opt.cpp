@@ -30,6 +30,8 @@ struct Channel {
     std::vector<double> velocity_weight;      // (1 - delta) w_k, frames 1 .. n-2
     double acceleration_weight = 0;           // delta
     double scale = 1;                         // lambda for the facing
+    std::vector<std::pair<int, double>> targets;  // (frame, value): PathTarget on this channel
+    std::vector<double> target_weights;
 
     int n() const { return int(moved.size()); }
     bool fixed(int k) const { return (k == 0 && first) || (k == n() - 1 && last); }
@@ -56,6 +58,17 @@ std::vector<Row> objective_rows(const Channel& c) {
     return rows;
 }
 
+// The rows the solver minimises: the objective's, then one per target (targets are not part of the
+// paper's objective, so channel_cost leaves them out).
+std::vector<Row> solve_rows(const Channel& c) {
+    std::vector<Row> rows = objective_rows(c);
+    for (std::size_t t = 0; t < c.targets.size(); ++t) {
+        const int k = c.targets[t].first;
+        rows.push_back({std::sqrt(c.target_weights[t]), {k, k, k}, {1, 0, 0}, c.targets[t].second});
+    }
+    return rows;
+}
+
 double channel_cost(const Channel& c, const std::vector<double>& z) {
     double cost = 0;
     for (const Row& r : objective_rows(c)) {
@@ -78,7 +91,7 @@ std::vector<double> solve_sparse(const Channel& c) {
     for (int k = 0; k < n; ++k) z[std::size_t(k)] = c.fixed(k) ? c.fixed_value(k) : c.moved[std::size_t(k)];
     if (free_count == 0) return z;
 
-    const std::vector<Row> rows = objective_rows(c);
+    const std::vector<Row> rows = solve_rows(c);
     auto solve = [&](bool tie_break, Eigen::VectorXd& x) {
         std::vector<Eigen::Triplet<double>> entries;
         const int row_count = int(rows.size()) + (tie_break ? free_count : 0);
@@ -121,7 +134,7 @@ std::vector<double> solve_sparse(const Channel& c) {
 // the moved path (the tie-break's limit).
 std::vector<double> solve_dense(const Channel& c) {
     const int n = c.n();
-    const std::vector<Row> rows = objective_rows(c);
+    const std::vector<Row> rows = solve_rows(c);
     Eigen::MatrixXd a = Eigen::MatrixXd::Zero(Eigen::Index(rows.size()), n);
     Eigen::VectorXd b(Eigen::Index(rows.size()));
     for (std::size_t r = 0; r < rows.size(); ++r) {
@@ -190,6 +203,12 @@ std::array<Channel, 3> channels(const PathProblem& p, const PathWeights& w) {
         ch.velocity_weight = axis < 2 ? root_w : facing_w;
         for (double& v : ch.velocity_weight) v *= 1 - w.delta;
         ch.scale = axis < 2 ? 1.0 : w.lambda;
+        if (axis < 2)
+            for (const PathTarget& t : p.targets) {
+                if (t.frame < 0 || t.frame >= int(n)) throw Error("path optimisation: a target lies outside the segment's frames");
+                ch.targets.emplace_back(t.frame, t.root[axis]);
+                ch.target_weights.push_back(t.weight);
+            }
     }
     return c;
 }

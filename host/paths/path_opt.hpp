@@ -29,6 +29,14 @@ struct PathEnd {
     double facing = 0;                                // edited facing, radians (same unwrapping as the input)
 };
 
+// Beyond the paper (docs/method.md section 8a): a point the edited root must pass at one frame,
+// added where the two performers would overlap, as a least-squares term of weight `weight`.
+struct PathTarget {
+    int frame = 0;  // index into the problem's frames
+    Eigen::Vector2d root = Eigen::Vector2d::Zero();
+    double weight = 1e4;
+};
+
 struct PathProblem {
     std::vector<Eigen::Vector2d> roots;  // captured roots C_k, in the scene frame
     std::vector<double> facings;         // captured facings F_k, unwrapped radians
@@ -37,12 +45,13 @@ struct PathProblem {
     // accelerations and velocities are compared after this turn, so a performer turned by the edit
     // keeps walking the way it faces. Empty: no turn, exactly docs/method.md's f_a and f_v.
     std::vector<double> turns;
+    std::vector<PathTarget> targets;  // empty: the paper's objective alone
 };
 
 struct PathSolution {
     std::vector<Eigen::Vector2d> roots;  // edited C-bar_k (the fixed ends included)
     std::vector<double> facings;         // edited F-bar_k
-    double root_cost = 0, facing_cost = 0;  // the objective's two parts at the optimum (facing part includes lambda)
+    double root_cost = 0, facing_cost = 0;  // the objective's two parts at the optimum (facing part includes lambda; targets excluded)
 };
 
 // The speed weights w_k = 1 / (1 + exp(alpha (s_k - threshold))), s_k = (|p_{k-1} - p_k| + |p_k - p_{k+1}|) / 2,

@@ -74,6 +74,8 @@ void add_edit_command(CLI::App& app) {
     add_backend_options(*edit, args->backend, args->device);
     edit->add_option("--from-sweep", args->options.from_sweep, "Reuse the solution groups of an earlier `amhv sweep` (or `amhv edit`) of this scene");
     edit->add_flag("--allow-empty", args->options.allow_empty, "Keep B's captured placement in a key segment whose solution group is empty");
+    edit->add_flag("--allow-transition-overlap", args->options.allow_transition_overlap,
+                   "Keep the paper's transitional paths where the performers would pass through each other (still checked and reported)");
     edit->add_flag("!--no-frames", args->options.frames, "Skip frames/NNNN.ply");
     edit->add_flag("!--no-glb", args->options.glb, "Skip scene.glb");
     edit->add_flag("--maps", args->options.maps, "Also write each key segment's feasibility maps");

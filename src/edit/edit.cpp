@@ -5,12 +5,14 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <numeric>
 
 #include <Eigen/Geometry>
 
 #include "src/core/angles.hpp"
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
+#include "src/edit/frame_check.hpp"
 #include "host/paths/path_opt.hpp"
 #include "src/sweep/pose_map.hpp"
 
@@ -47,6 +49,18 @@ Vec3 sweep_root(const Vec3& root, double voxel) {
     Vec3 out;
     for (int a = 0; a < 3; ++a) out[a] = double(posemap::quantise_root(root[a] / voxel)) / scale * voxel;
     return out;
+}
+
+TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source) {
+    const ObjectFrameEdit& e = edit.frames[std::size_t(object)][std::size_t(k)];
+    TriangleMesh mesh;
+    for (const BodyPart& part : source.frame_parts(e.source)) mesh.append(part.mesh);
+    const Eigen::Rotation2Dd rotation(e.yaw);
+    for (Vec3& v : mesh.vertices) {
+        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
+        v = Vec3(p.x(), p.y(), v.z() + e.lift);
+    }
+    return mesh;
 }
 
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {
@@ -234,7 +248,8 @@ void place_key_segments(const Scene& scene, const std::vector<KeySweep>& sweeps,
 
 // One object's path through one transitional segment (docs/method.md section 8), between the
 // edited ends of the key segments around it (one free end before the first and after the last).
-PathReport optimise_transition(const TimelineSegment& seg, int segment_index, int o, const PathWeights& pw, EditResult& r) {
+PathReport optimise_transition(const TimelineSegment& seg, int segment_index, int o, const PathWeights& pw, EditResult& r,
+                               const std::map<int, Eigen::Vector2d>& targets = {}) {
     const int length = r.timeline.length();
     const bool before = seg.first > 0, after = seg.first + seg.length < length;
     const int first = seg.first - (before ? 1 : 0), last = seg.first + seg.length - 1 + (after ? 1 : 0);
@@ -256,6 +271,7 @@ PathReport optimise_transition(const TimelineSegment& seg, int segment_index, in
     const double lift_last = after ? frames[std::size_t(last)].lift : lift_first;
     for (int m = seg.first; m < seg.first + seg.length; ++m)
         frames[std::size_t(m)].lift = lift_first + (lift_last - lift_first) * (last > first ? double(m - first) / (last - first) : 0.0);
+    for (const auto& [m, point] : targets) p.targets.push_back({m - first, point});
     const PathSolution sol = optimise_path(p, pw);
     PathReport report{segment_index, o, seg.length, sol.root_cost, sol.facing_cost, 0};
     for (int m = seg.first; m < seg.first + seg.length; ++m) {
@@ -267,6 +283,103 @@ PathReport optimise_transition(const TimelineSegment& seg, int segment_index, in
         report.max_shift_m = std::max(report.max_shift_m, (f.edited_root - f.original_root).norm());
     }
     return report;
+}
+
+constexpr int kSeparationRounds = 12;
+
+// Frame numbers as "39-86, 127" for messages.
+std::string frame_ranges(const std::vector<int>& frames) {
+    std::string out;
+    for (std::size_t i = 0; i < frames.size();) {
+        std::size_t j = i;
+        while (j + 1 < frames.size() && frames[j + 1] == frames[j] + 1) ++j;
+        out += fmt::format("{}{}", out.empty() ? "" : ", ", i == j ? fmt::format("{}", frames[i]) : fmt::format("{}-{}", frames[i], frames[j]));
+        i = j + 1;
+    }
+    return out;
+}
+
+struct SeparationContext {
+    const Scene& scene;
+    ObjectSource* sources[2];
+    Voxeliser& voxeliser;
+    PathWeights weights;
+};
+
+// One transitional segment kept free of overlap (docs/method.md section 8a): where the check finds
+// the two bodies inside each other, each root gets a target pushed apart along the line between the
+// roots by the overlap's depth and one voxel (shared as the DP shares A's translations: A moves
+// w_B / (w_A + w_B) of it), the paths are solved again with those targets, and the frames checked
+// again, until none overlaps.
+TransitionCheck separate_transition(const SeparationContext& c, int s, const EditOptions& options, EditResult& r, std::vector<FrameCheck>& checks) {
+    const TimelineSegment seg = r.timeline.segments[std::size_t(s)];
+    const double h = c.scene.sampling.voxel;
+    std::vector<int> frames(std::size_t(seg.length));
+    std::iota(frames.begin(), frames.end(), seg.first);
+    TransitionCheck t;
+    t.timeline_segment = s;
+    t.frames = seg.length;
+    auto tally = [&](int& overlapping, std::uint64_t& largest) {
+        overlapping = 0, largest = 0;
+        for (const FrameCheck& f : checks) overlapping += f.overlap > 0, largest = std::max(largest, f.overlap);
+    };
+    auto smoothness = [&] {
+        double sum = 0;
+        for (const PathReport& p : r.paths)
+            if (p.timeline_segment == s) sum += p.root_cost + p.facing_cost;
+        return sum;
+    };
+    checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser);
+    tally(t.overlapping_before, t.max_overlap_before);
+    t.smoothness_before = t.smoothness = smoothness();
+    const double w_a = c.scene.weights.w_a, w_b = c.scene.weights.w_b;
+    const double share_a = std::isinf(w_a) ? 0.0 : w_b / (w_a + w_b);
+    std::array<std::map<int, Eigen::Vector2d>, 2> targets;
+    for (; t.rounds < kSeparationRounds && !options.allow_transition_overlap; ++t.rounds) {
+        bool any = false;
+        for (const FrameCheck& f : checks) {
+            if (f.overlap == 0) continue;
+            any = true;
+            const Eigen::Vector2d push = f.apart * (f.depth_m + h);
+            targets[0][f.frame] = r.frames[0][std::size_t(f.frame)].edited_root - share_a * push;
+            targets[1][f.frame] = r.frames[1][std::size_t(f.frame)].edited_root + (1 - share_a) * push;
+        }
+        if (!any) break;
+        for (PathReport& p : r.paths)
+            if (p.timeline_segment == s) p = optimise_transition(seg, s, p.object, c.weights, r, targets[std::size_t(p.object)]);
+        checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser);
+    }
+    tally(t.overlapping, t.max_overlap);
+    t.smoothness = smoothness();
+    if (t.overlapping > 0 && !options.allow_transition_overlap) {
+        std::vector<int> bad;
+        for (const FrameCheck& f : checks)
+            if (f.overlap > 0) bad.push_back(f.frame);
+        throw Error(fmt::format("{}: transition {} (output frames {}) keeps the performers inside each other at frames {} ({} voxels at most) "
+                                "after {} rounds of separation; change the key segments around it, or pass --allow-transition-overlap",
+                                c.scene.file.string(), s / 2, frame_ranges(frames), frame_ranges(bad), t.max_overlap, t.rounds));
+    }
+    return t;
+}
+
+// Every output frame checked (frame_checks); every transitional segment separated where it overlaps.
+void check_and_separate(const SeparationContext& c, const EditOptions& options, EditResult& r) {
+    std::vector<FrameCheck> all;
+    for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {
+        const TimelineSegment& seg = r.timeline.segments[s];
+        if (seg.length == 0) continue;
+        std::vector<FrameCheck> checks;
+        if (seg.key == 0) {
+            r.transition_checks.push_back(separate_transition(c, int(s), options, r, checks));
+        } else {
+            std::vector<int> frames(std::size_t(seg.length));
+            std::iota(frames.begin(), frames.end(), seg.first);
+            checks = check_frames(r, frames, *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
+        }
+        all.insert(all.end(), checks.begin(), checks.end());
+    }
+    std::sort(all.begin(), all.end(), [](const FrameCheck& x, const FrameCheck& y) { return x.frame < y.frame; });
+    r.frame_checks = std::move(all);
 }
 
 }  // namespace
@@ -307,6 +420,11 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
         for (int o = 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, pw, r));
     }
     r.path_seconds = seconds_since(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    r.voxel = scene.sampling.voxel;
+    check_and_separate(SeparationContext{scene, {&a, &b}, voxeliser, pw}, options, r);
+    r.check_seconds = seconds_since(t0);
     return r;
 }
 

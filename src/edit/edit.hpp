@@ -4,6 +4,7 @@
 // transitional root paths by path optimisation, and the rigid transform of every output frame.
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -62,8 +63,32 @@ struct PathReport {
     double max_shift_m = 0;    // largest |C-bar_k - C_k| (original placement) over the segment
 };
 
+// How far apart two bodies may be for their gap to be measured (beyond it: "far").
+inline constexpr double kGapReach = 0.3;
+
+// One output frame's check (src/edit/frame_check.hpp): both whole bodies as solids at the scene's voxel.
+struct FrameCheck {
+    int frame = 0;                // output frame
+    std::uint64_t overlap = 0;    // voxels inside both bodies
+    std::optional<double> gap_m;  // 0 when they overlap; else the smallest distance between the two
+                                  // solids' voxel centres less one voxel; empty beyond kGapReach
+    Eigen::Vector2d apart = Eigen::Vector2d::UnitX();  // on the floor, from A's root towards B's
+    double depth_m = 0;           // the overlap's extent along `apart` (0 without overlap)
+};
+
+// One transitional segment's check, before and after the separation (docs/method.md section 8a).
+struct TransitionCheck {
+    int timeline_segment = 0;
+    int frames = 0;
+    int overlapping_before = 0, overlapping = 0;        // frames with overlap
+    std::uint64_t max_overlap_before = 0, max_overlap = 0;  // voxels
+    int rounds = 0;                                     // re-solves with separation targets
+    double smoothness_before = 0, smoothness = 0;       // the paper's path objective, both objects, roots and facings
+};
+
 struct EditOptions {
     bool allow_empty = false;  // keep B's captured placement where a group is empty
+    bool allow_transition_overlap = false;  // check and report, but keep the paper's paths
 };
 
 struct EditResult {
@@ -72,8 +97,15 @@ struct EditResult {
     std::vector<KeyEdit> keys;
     ChainChoice choice;  // solution index per key segment (captured placements included as their own state)
     std::vector<PathReport> paths;
-    double roots_seconds = 0, dp_seconds = 0, path_seconds = 0;
+    std::vector<FrameCheck> frame_checks;        // every output frame, in order
+    std::vector<TransitionCheck> transition_checks;
+    double voxel = 0.01;  // the edge the frames were checked at
+    double roots_seconds = 0, dp_seconds = 0, path_seconds = 0, check_seconds = 0;
 };
+
+// Object `object`'s (0 = A, 1 = B) mesh at output frame k, moved into the scene (the frame's
+// rigid transform and lift).
+TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source);
 
 // Roots (centroid of the voxels of edge `voxel`) of the given frames of `object`, by `voxeliser`.
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser);

@@ -184,11 +184,13 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
 
     EditOptions edit_options;
     edit_options.allow_empty = options.allow_empty;
+    edit_options.allow_transition_overlap = options.allow_transition_overlap;
     EditResult edit = edit_scene(scene, stage.sweeps, a, b, backends.voxeliser, edit_options);
     if (!options.from_sweep.empty()) verify_chosen_poses(scene, edit, a, b, backends.voxeliser, options.from_sweep);
 
     auto t0 = std::chrono::steady_clock::now();
     write_transforms_json(out / "transforms.json", scene, edit);
+    write_frame_checks_csv(out / "frames.csv", edit);
     results::EditFiles files;
     files.frames = options.frames;
     files.mesh_files = options.frames ? write_scene_frames(out / "frames", edit, a, b) : 0;
@@ -205,7 +207,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     const double output_seconds = seconds_since(t0) + stage.output_seconds;
     if (options.timings)
         json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
-                             {"path", edit.path_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
+                             {"path", edit.path_seconds}, {"check", edit.check_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
     results::write_json_file(out / "result.json", json);
     return edit;
 }

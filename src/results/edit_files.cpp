@@ -156,16 +156,17 @@ EditedFrame edited_frame(const EditResult& edit, int k, ObjectSource& a, ObjectS
 
 }  // namespace
 
-TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source) {
-    const ObjectFrameEdit& e = edit.frames[std::size_t(object)][std::size_t(k)];
-    TriangleMesh mesh;
-    for (const BodyPart& part : source.frame_parts(e.source)) mesh.append(part.mesh);
-    const Eigen::Rotation2Dd rotation(e.yaw);
-    for (Vec3& v : mesh.vertices) {
-        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
-        v = Vec3(p.x(), p.y(), v.z() + e.lift);
+void write_frame_checks_csv(const fs::path& path, const EditResult& edit) {
+    std::string text = "frame,segment,overlap_voxels,overlap_cm3,gap_mm\n";
+    const double voxel_cm3 = std::pow(edit.voxel * 100, 3);
+    for (const FrameCheck& f : edit.frame_checks) {
+        const auto seg = std::find_if(edit.timeline.segments.begin(), edit.timeline.segments.end(),
+                                      [&](const TimelineSegment& s) { return f.frame >= s.first && f.frame < s.first + s.length; });
+        const std::string name = seg->key ? fmt::format("key {}", seg->key) : fmt::format("transition {}", (seg - edit.timeline.segments.begin()) / 2);
+        text += fmt::format("{},{},{},{:.3f},{}\n", f.frame, name, f.overlap, double(f.overlap) * voxel_cm3,
+                            f.gap_m ? fmt::format("{:.1f}", *f.gap_m * 1000) : std::string());
     }
-    return mesh;
+    write_file(path, text);
 }
 
 int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {

@@ -14,9 +14,9 @@ namespace amhv {
 // x, y, yaw and as a row-major 4x4 matrix.
 void write_transforms_json(const std::filesystem::path& path, const Scene& scene, const EditResult& edit);
 
-// Object `object`'s (0 = A, 1 = B) mesh at output frame k, moved into the scene (the frame's
-// rigid transform and lift).
-TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source);
+// frames.csv: per output frame, the check of both whole bodies (docs/scenes.md):
+// frame,segment,overlap_voxels,overlap_cm3,gap_mm (gap empty when farther than kGapReach).
+void write_frame_checks_csv(const std::filesystem::path& path, const EditResult& edit);
 
 // `folder`/NNNN.ply, one binary PLY per output frame holding both objects' transformed meshes: A's
 // vertices first, coloured orange (230, 120, 40), then B's, blue (40, 120, 230); the header's

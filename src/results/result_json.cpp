@@ -129,6 +129,26 @@ void check_group(const SolutionGroup& group, const nlohmann::json& entry, const 
         fail(file.string(), "holds {} poses but result.json says the group has {} solutions", group.size(), entry.at("solutions").get<std::uint64_t>());
 }
 
+// Per transitional segment: the frames checked, those where the bodies overlap before and after
+// the separation, the largest overlap (voxels and cm^3), and the paper's smoothness objective.
+Json transitions_json(const EditResult& edit) {
+    Json out = Json::array();
+    const double voxel_cm3 = std::pow(edit.voxel * 100, 3);
+    for (const TransitionCheck& t : edit.transition_checks)
+        out.push_back({{"segment", fmt::format("transition {}", t.timeline_segment / 2)},
+                       {"frames_checked", t.frames},
+                       {"frames_overlapping", t.overlapping},
+                       {"max_overlap_voxels", t.max_overlap},
+                       {"max_overlap_cm3", double(t.max_overlap) * voxel_cm3},
+                       {"separation_rounds", t.rounds},
+                       {"smoothness", t.smoothness},
+                       {"before_separation", {{"frames_overlapping", t.overlapping_before},
+                                              {"max_overlap_voxels", t.max_overlap_before},
+                                              {"max_overlap_cm3", double(t.max_overlap_before) * voxel_cm3},
+                                              {"smoothness", t.smoothness_before}}}});
+    return out;
+}
+
 }  // namespace
 
 Json result_header(const Scene& scene, const std::string& backend, const std::string& device) {
@@ -212,7 +232,9 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                          {"facing_residual", p.facing_cost},
                          {"max_shift_m", p.max_shift_m}});
     json["paths"] = paths;
+    json["transitions"] = transitions_json(edit);
     json["output"] = {{"frames", edit.timeline.length()},
+                      {"frame_checks", "frames.csv"},
                       {"transforms", "transforms.json"},
                       {"meshes", files.frames ? nlohmann::json("frames/NNNN.ply") : nlohmann::json(nullptr)},
                       {"mesh_files", files.mesh_files},

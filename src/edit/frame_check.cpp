@@ -1,0 +1,187 @@
+#include "src/edit/frame_check.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+#include <nanoflann.hpp>
+
+#include "src/core/parallel.hpp"
+
+namespace amhv {
+
+namespace {
+
+// Voxel coordinates of one body's boundary voxels (occupied, with an empty 6-neighbour or on the
+// grid's edge): the nearest voxel of a solid to anything outside it is one of these.
+struct Boundary {
+    std::vector<std::array<double, 3>> points;
+    std::size_t kdtree_get_point_count() const { return points.size(); }
+    double kdtree_get_pt(std::size_t i, std::size_t axis) const { return points[i][axis]; }
+    template <typename Box>
+    bool kdtree_get_bbox(Box&) const { return false; }
+};
+
+// Voxel index bounds [lo, hi] of the grid's voxels within `reach` of `box` (where a body's voxel
+// can be nearest to the other body, when the gap is within reach).
+struct Region {
+    std::array<int, 3> lo{}, hi{};
+};
+Region near_box(const VoxelGrid& g, const Box3& box, double reach) {
+    Region r;
+    for (int axis = 0; axis < 3; ++axis) {
+        r.lo[std::size_t(axis)] = std::max(0, int(std::floor((box.min[axis] - reach - g.origin[axis]) / g.voxel)));
+        r.hi[std::size_t(axis)] = std::min(g.dims[std::size_t(axis)] - 1, int(std::ceil((box.max[axis] + reach - g.origin[axis]) / g.voxel)));
+    }
+    return r;
+}
+
+// A result set for nanoflann that keeps only the smallest squared distance seen over every query:
+// the tree prunes each query by the best pair found so far, so most queries end at once.
+class NearestSoFar {
+public:
+    explicit NearestSoFar(double& best) : best_(best) {}
+    bool addPoint(double squared, std::size_t) {
+        best_ = std::min(best_, squared);
+        return true;
+    }
+    double worstDist() const { return best_; }
+    bool full() const { return true; }
+
+private:
+    double& best_;
+};
+
+// The points of `all` inside `region`.
+Boundary within(const std::vector<std::array<double, 3>>& all, const Region& region) {
+    Boundary out;
+    for (const auto& p : all)
+        if (p[0] >= region.lo[0] && p[0] <= region.hi[0] && p[1] >= region.lo[1] && p[1] <= region.hi[1] && p[2] >= region.lo[2] &&
+            p[2] <= region.hi[2])
+            out.points.push_back(p);
+    return out;
+}
+
+// The smallest distance between the centres of A's and B's voxels, in voxels (exact: squared
+// integer distances), by a k-d tree over one side's boundary (nanoflann). Only boundary voxels
+// within the reach of the other body's box take part: a nearer pair within the reach lies there.
+double nearest_voxels(const VoxelGrid& grid, const std::vector<std::array<double, 3>>& boundary_a, const std::vector<std::array<double, 3>>& boundary_b,
+                      const Box3& box_a, const Box3& box_b) {
+    const double reach = kGapReach + 2 * grid.voxel;
+    const Boundary a = within(boundary_a, near_box(grid, box_b, reach)), b = within(boundary_b, near_box(grid, box_a, reach));
+    if (a.points.empty() || b.points.empty()) return std::numeric_limits<double>::infinity();
+    const Boundary& indexed = a.points.size() >= b.points.size() ? a : b;
+    const Boundary& queries = &indexed == &a ? b : a;
+    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Boundary>, Boundary, 3>;
+    Tree tree(3, indexed, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    tree.buildIndex();
+    double best = std::numeric_limits<double>::infinity();
+    NearestSoFar result(best);
+    for (const auto& p : queries.points) tree.findNeighbors(result, p.data(), nanoflann::SearchParams());
+    return std::sqrt(best);
+}
+
+// Frames voxelised together: A's bodies take bits 0..n-1 of the word, B's n..2n-1.
+constexpr std::size_t kBatch = 16;
+
+struct Pending {
+    FrameCheck* check;
+    TriangleMesh a, b;
+    Box3 box_a, box_b;
+};
+
+// What one pass over a batch's volume finds, per bit (a body at a frame) and per frame.
+struct BatchScan {
+    std::vector<std::vector<std::array<double, 3>>> boundary;  // per bit: voxels with an empty 6-neighbour
+    std::vector<double> low, high;                            // per frame: the overlap's extent along `apart`
+};
+
+// One pass: each voxel's boundary bits (its word less the AND of its six neighbours' words; outside
+// the grid is empty) and its overlap bits (A's bit f with B's bit n + f), for every frame at once.
+BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>& batch) {
+    const VoxelGrid& g = both.grid();
+    BatchScan scan;
+    scan.boundary.resize(2 * n);
+    scan.low.assign(n, std::numeric_limits<double>::infinity());
+    scan.high.assign(n, -std::numeric_limits<double>::infinity());
+    auto word = [&](int x, int y, int z) {
+        return x >= 0 && y >= 0 && z >= 0 && x < g.dims[0] && y < g.dims[1] && z < g.dims[2] ? both.word(0, g.index(x, y, z)) : 0u;
+    };
+    const std::uint32_t low_bits = n >= 32 ? ~0u : (1u << n) - 1;
+    for (int z = 0; z < g.dims[2]; ++z)
+        for (int y = 0; y < g.dims[1]; ++y)
+            for (int x = 0; x < g.dims[0]; ++x) {
+                const std::uint32_t w = both.word(0, g.index(x, y, z));
+                if (!w) continue;
+                std::uint32_t edge = w & ~(word(x - 1, y, z) & word(x + 1, y, z) & word(x, y - 1, z) & word(x, y + 1, z) & word(x, y, z - 1) & word(x, y, z + 1));
+                for (; edge; edge &= edge - 1) scan.boundary[std::size_t(std::countr_zero(edge))].push_back({double(x), double(y), double(z)});
+                for (std::uint32_t overlap = w & (w >> n) & low_bits; overlap; overlap &= overlap - 1) {
+                    const std::size_t f = std::size_t(std::countr_zero(overlap));
+                    FrameCheck& check = *batch[f].check;
+                    ++check.overlap;
+                    const Vec3 c = g.centre(x, y, z);
+                    const double along = check.apart.dot(Eigen::Vector2d(c.x(), c.y()));
+                    scan.low[f] = std::min(scan.low[f], along), scan.high[f] = std::max(scan.high[f], along);
+                }
+            }
+    return scan;
+}
+
+void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxeliser) {
+    if (batch.empty()) return;
+    const std::size_t n = batch.size();
+    Box3 all;
+    std::vector<MeshFrame> frames(2 * n);
+    std::vector<const MeshFrame*> pointers(2 * n);
+    for (std::size_t f = 0; f < n; ++f) {
+        all.extend(batch[f].box_a);
+        all.extend(batch[f].box_b);
+        frames[f] = {std::move(batch[f].a), fmt::format("A at output frame {}", batch[f].check->frame)};
+        frames[n + f] = {std::move(batch[f].b), fmt::format("B at output frame {}", batch[f].check->frame)};
+    }
+    for (std::size_t f = 0; f < 2 * n; ++f) pointers[f] = &frames[f];
+    const VoxelGrid grid = grid_covering(all, voxel, fmt::format("output frames {}..{}", batch.front().check->frame, batch.back().check->frame));
+    const Amhv both = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
+    const BatchScan scan = scan_batch(both, n, batch);
+    // Each frame's gap on its own (frames write only their own check).
+    parallel_for(n, [&](std::size_t f) {
+        FrameCheck& check = *batch[f].check;
+        if (check.overlap > 0) {
+            check.gap_m = 0.0;
+            check.depth_m = scan.high[f] - scan.low[f] + voxel;
+            return;
+        }
+        const double centres = nearest_voxels(grid, scan.boundary[f], scan.boundary[n + f], batch[f].box_a, batch[f].box_b) * voxel;
+        if (centres - voxel <= kGapReach) check.gap_m = std::max(0.0, centres - voxel);
+    });
+    batch.clear();
+}
+
+}  // namespace
+
+std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<int>& frames, ObjectSource& a, ObjectSource& b, double voxel,
+                                     Voxeliser& voxeliser) {
+    std::vector<FrameCheck> checks(frames.size());
+    std::vector<Pending> batch;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const int k = frames[i];
+        FrameCheck& check = checks[i];
+        check.frame = k;
+        const Eigen::Vector2d between = edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root;
+        if (between.norm() > 1e-9) check.apart = between.normalized();
+        Pending p{&check, placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b), {}, {}};
+        p.box_a = p.a.bounds(), p.box_b = p.b.bounds();
+        // Boxes farther apart than the reach: neither overlap nor a gap to measure.
+        const Vec3 separation = (p.box_a.min - p.box_b.max).cwiseMax(p.box_b.min - p.box_a.max).cwiseMax(0.0);
+        if (separation.norm() > kGapReach) continue;
+        batch.push_back(std::move(p));
+        if (batch.size() == kBatch) decide_batch(batch, voxel, voxeliser);
+    }
+    decide_batch(batch, voxel, voxeliser);
+    return checks;
+}
+
+}  // namespace amhv
