@@ -9,10 +9,13 @@
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <cairo.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "host/reference/voxelise_reference.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/mesh_sequence.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 #include "support.hpp"
@@ -25,6 +28,57 @@ namespace fs = std::filesystem;
 bool right_hand(const std::string& name) { return name == "right_hand"; }
 bool whole_body(const std::string&) { return true; }
 bool fidelity_part(const std::string& name) { return name != "right_hand" && name != "right_forearm" && name != "right_upper_arm"; }
+
+// Pixels of a PNG within `radius` of its centre shaded in performer `colour`'s hue (0: A, orange,
+// red well above blue; 1: B, blue, blue well above red).
+int pixels_of(const fs::path& png, int colour, double radius) {
+    cairo_surface_t* image = cairo_image_surface_create_from_png(png.c_str());
+    EXPECT_EQ(cairo_surface_status(image), CAIRO_STATUS_SUCCESS) << png;
+    const int width = cairo_image_surface_get_width(image), height = cairo_image_surface_get_height(image);
+    int count = 0;
+    for (int y = 0; y < height; ++y) {
+        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(image) + y * cairo_image_surface_get_stride(image));
+        for (int x = 0; x < width; ++x) {
+            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
+            if (std::hypot(x - width / 2.0, y - height / 2.0) <= radius) count += colour == 0 ? r > b + 60 : b > r + 60;
+        }
+    }
+    cairo_surface_destroy(image);
+    return count;
+}
+
+// A.bvh and B.bvh re-imported: one frame per output frame at the take's rate; every joint (the
+// root and the head) where transforms.json puts the source frame's joint in the scene; every
+// channel but the root's as captured.
+void expect_edited_takes(const fs::path& out, const Scene& scene, const nlohmann::json& transforms) {
+    const SceneObject* specs[2] = {&scene.a, &scene.b};
+    for (int o = 0; o < 2; ++o) {
+        ObjectSource source(*specs[o]);
+        const BvhMotion& captured = *source.motion();
+        const BvhMotion edited = read_bvh(out / fmt::format("{}.bvh", "AB"[o]));
+        ASSERT_EQ(edited.frame_count, transforms.at("frames").get<int>());
+        EXPECT_NEAR(edited.frame_time, captured.frame_time, 1e-8);
+        const int head = captured.joint_index("Head");
+        ASSERT_GE(head, 0);
+        const BvhJoint& root = captured.joints[0];
+        for (int k : {0, 60, 120, 200, edited.frame_count - 1}) {
+            const auto& t = transforms.at("output").at(std::size_t(k)).at(o == 0 ? "A" : "B");
+            const int from = t.at("source").get<int>();
+            const Eigen::Rotation2Dd yaw(t.at("yaw_deg").get<double>() * std::numbers::pi / 180);
+            const auto now = edited.global_transforms(k), then = captured.global_transforms(from);
+            for (int j : {0, head}) {
+                const Vec3 p = to_scene_point(then[std::size_t(j)].translation(), specs[o]->units);
+                const Eigen::Vector2d xy = yaw * Eigen::Vector2d(p.x(), p.y()) + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
+                const Vec3 expected(xy.x(), xy.y(), p.z() + t.at("z").get<double>());
+                EXPECT_LT((to_scene_point(now[std::size_t(j)].translation(), specs[o]->units) - expected).norm(), 1e-4) << "AB"[o] << " frame " << k << " joint " << j;
+            }
+            for (int c = 0; c < captured.channel_count; ++c) {
+                if (c >= root.first_channel && c < root.first_channel + int(root.channels.size())) continue;
+                EXPECT_NEAR(edited.values[std::size_t(k * edited.channel_count + c)], captured.values[std::size_t(from * captured.channel_count + c)], 1e-6);
+            }
+        }
+    }
+}
 
 TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     test::TempDir dir;
@@ -83,10 +137,14 @@ TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     EXPECT_GT(before, 0);
     const std::string checks = test::read_text(out / "frames.csv");
     EXPECT_EQ(std::count(checks.begin(), checks.end(), '\n'), 284);  // the header and 283 output frames
+    // The paper's first-person views: each performer sees the other inside its view cone's circle.
+    for (const auto& [file, colour] : {std::pair{"key_1_from_A.png", 1}, std::pair{"key_1_from_B.png", 0}})
+        EXPECT_GT(pixels_of(out / "views" / file, colour, 170), 2000) << file;
     // The whole scene in one glTF file the Khronos validator accepts.
     const auto valid = test::validate_gltf(out / "scene.glb");
     EXPECT_EQ(valid.exit_code, 0) << valid.output;
     EXPECT_NE(valid.output.find(": 0 errors"), std::string::npos) << valid.output;
+    expect_edited_takes(out, scene, transforms);
 }
 
 // The second real pair (CMU 20/21, a high five while passing), read as shipped: no T-pose, other

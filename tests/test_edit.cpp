@@ -213,7 +213,8 @@ TEST(Edit, ATransitionThroughThePartnerIsSeparated) {
     ObjectSource a(loaded.a), b(loaded.b);
     ReferenceVoxeliser voxeliser;
     auto whole = [](const std::string&) { return true; };
-    for (const auto& frame : read_json(root / "separated/transforms.json").at("output")) {
+    const auto transforms = read_json(root / "separated/transforms.json");
+    for (const auto& frame : transforms.at("output")) {
         if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
         EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
             << "output frame " << frame.at("frame").get<int>();

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 
 #include "src/core/angles.hpp"
@@ -368,6 +369,68 @@ BvhMotion resample_bvh(const BvhMotion& motion, double fps) {
         }
     }
     return out;
+}
+
+namespace {
+
+const char* channel_name(BvhJoint::Channel c) {
+    switch (c) {
+        case BvhJoint::Channel::XPosition: return "Xposition";
+        case BvhJoint::Channel::YPosition: return "Yposition";
+        case BvhJoint::Channel::ZPosition: return "Zposition";
+        case BvhJoint::Channel::XRotation: return "Xrotation";
+        case BvhJoint::Channel::YRotation: return "Yrotation";
+        default: return "Zrotation";
+    }
+}
+
+void write_joint(const BvhMotion& motion, std::size_t j, int depth, std::string& out) {
+    const BvhJoint& joint = motion.joints[j];
+    const std::string indent(std::size_t(depth), '\t');
+    out += indent + (joint.end_site ? std::string("End Site") : (joint.parent < 0 ? "ROOT " : "JOINT ") + joint.name) + "\n" + indent + "{\n";
+    out += fmt::format("{}\tOFFSET {:.6f} {:.6f} {:.6f}\n", indent, joint.offset.x(), joint.offset.y(), joint.offset.z());
+    if (!joint.end_site) {
+        out += fmt::format("{}\tCHANNELS {}", indent, joint.channels.size());
+        for (BvhJoint::Channel c : joint.channels) out += std::string(" ") + channel_name(c);
+        out += "\n";
+    }
+    for (std::size_t child = j + 1; child < motion.joints.size(); ++child)
+        if (motion.joints[child].parent == int(j)) write_joint(motion, child, depth + 1, out);
+    out += indent + "}\n";
+}
+
+}  // namespace
+
+std::string bvh_text(const BvhMotion& motion) {
+    std::string out = "HIERARCHY\n";
+    write_joint(motion, 0, 0, out);
+    out += fmt::format("MOTION\nFrames: {}\nFrame Time: {:.8f}\n", motion.frame_count, motion.frame_time);
+    for (int f = 0; f < motion.frame_count; ++f) {
+        const double* row = motion.values.data() + std::size_t(f) * std::size_t(motion.channel_count);
+        for (int c = 0; c < motion.channel_count; ++c) out += fmt::format("{}{:.6f}", c ? " " : "", row[c]);
+        out += "\n";
+    }
+    return out;
+}
+
+std::array<double, 3> euler_degrees_near(const Eigen::Matrix3d& rotation, const std::array<int, 3>& axes, const std::array<double, 3>& near) {
+    const Vec3 first = rotation.eulerAngles(axes[0], axes[1], axes[2]);
+    // Tait-Bryan angles have a second solution (a0 + pi, pi - a1, a2 + pi); proper Euler angles
+    // (a0 + pi, -a1, a2 + pi). Each angle then moves by whole turns to lie nearest `near`.
+    const bool proper = axes[0] == axes[2];
+    const Vec3 second(first[0] + std::numbers::pi, proper ? -first[1] : std::numbers::pi - first[1], first[2] + std::numbers::pi);
+    std::array<double, 3> best{}, candidate{};
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (const Vec3& solution : {first, second}) {
+        double distance = 0;
+        for (int i = 0; i < 3; ++i) {
+            const double degrees = angles::degrees(solution[i]);
+            candidate[std::size_t(i)] = degrees + 360.0 * std::round((near[std::size_t(i)] - degrees) / 360.0);
+            distance += std::abs(candidate[std::size_t(i)] - near[std::size_t(i)]);
+        }
+        if (distance < best_distance) best_distance = distance, best = candidate;
+    }
+    return best;
 }
 
 BvhMotion load_bvh(const std::filesystem::path& path, const BvhLoadOptions& options) {

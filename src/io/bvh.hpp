@@ -1,6 +1,7 @@
 #pragma once
 // BVH motion capture files: hierarchy (any channel order, end sites) and motion block.
 // Tolerates CRLF/LF mixes, tabs and odd whitespace; malformed files give an error with the line.
+#include <array>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -61,6 +62,16 @@ std::string_view to_string(TPose mode);
 // three rotation channels by quaternion slerp, others per channel). Frame numbers therefore mean
 // the same moment at any rate; first_frame moves to the first frame at or after the old one.
 BvhMotion resample_bvh(const BvhMotion& motion, double fps);
+
+// The file text of `motion`: its hierarchy (end sites as "End Site") and every frame of `values`,
+// six decimals; read_bvh reads it back.
+std::string bvh_text(const BvhMotion& motion);
+
+// Rotation channel values in degrees for three rotation axes (0 x, 1 y, 2 z, applied in listed
+// order, R = R(axes[0]) R(axes[1]) R(axes[2])) that give `rotation`: of the two solutions, the one
+// nearest `near` (degrees), each angle moved by whole turns towards it, so edited channels do not
+// flip between representations.
+std::array<double, 3> euler_degrees_near(const Eigen::Matrix3d& rotation, const std::array<int, 3>& axes, const std::array<double, 3>& near);
 
 // read_bvh, then the T-pose rule and, when fps is given and differs from the file's
 // rate, resample_bvh: how scenes, `amhv mhv --bvh` and `amhv import-bvh` all load a take.

@@ -201,6 +201,8 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     }
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
     files.view_frames = write_key_views(out / "views", edit, a, b);
+    write_eye_views(out / "views", scene, edit, a, b);
+    files.bvh = write_edited_bvh(out, edit, a, b);
 
     json["segments"] = stage.segments;
     results::add_edit(json, edit, files);

@@ -257,6 +257,194 @@ std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit,
     return shown;
 }
 
+namespace {
+
+// A pinhole camera at a performer's eye (docs/method.md section 10): the visibility cone's
+// half-angle reaches the circle of radius kCone pixels around the picture's centre.
+struct EyeCamera {
+    Vec3 eye, forward, right, up;
+    double focal = 1;  // pixels per unit of tangent
+};
+
+constexpr int kEyeSize = 600;
+constexpr double kCone = 170, kNear = 0.05;
+
+// Eye and gaze of object `o` at output frame k in the scene: from its view track, else 10 cm below
+// the top of its body above its root, looking along its edited facing.
+EyeCamera eye_camera(const EditResult& edit, int k, int o, ObjectSource& source, const TriangleMesh& placed, double half_angle_deg) {
+    const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
+    EyeCamera c;
+    const auto sample = source.track(e.source);
+    const Eigen::Rotation2Dd yaw(e.yaw);
+    if (sample && sample->gaze.norm() > 1e-9) {
+        const Eigen::Vector2d at = yaw * Eigen::Vector2d(sample->eye.x(), sample->eye.y()) + e.translation;
+        const Eigen::Vector2d gaze = yaw * Eigen::Vector2d(sample->gaze.x(), sample->gaze.y());
+        c.eye = Vec3(at.x(), at.y(), sample->eye.z() + e.lift);
+        c.forward = Vec3(gaze.x(), gaze.y(), sample->gaze.z()).normalized();
+    } else {
+        c.eye = Vec3(e.edited_root.x(), e.edited_root.y(), placed.bounds().max.z() - 0.1);
+        c.forward = Vec3(std::cos(e.edited_facing), std::sin(e.edited_facing), 0);
+    }
+    const Vec3 side = c.forward.cross(Vec3::UnitZ());
+    c.right = side.norm() > 1e-6 ? Vec3(side.normalized()) : Vec3::UnitX();
+    c.up = c.right.cross(c.forward);
+    c.focal = kCone / std::tan(angles::radians(std::clamp(half_angle_deg, 1.0, 89.0)));
+    return c;
+}
+
+// Draws `other` as `o`'s eye sees it (far triangles first, those behind the eye left out), the
+// floor grid, and the cone's circle; writes `path`.
+void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh& other, int other_index, const std::string& caption) {
+    auto camera = [&](const Vec3& p) { const Vec3 d = p - c.eye; return Vec3(d.dot(c.right), d.dot(c.up), d.dot(c.forward)); };
+    auto pixel = [&](const Vec3& q) { return Eigen::Vector2d(kEyeSize / 2.0 + c.focal * q.x() / q.z(), kEyeSize / 2.0 - c.focal * q.y() / q.z()); };
+    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kEyeSize, kEyeSize);
+    cairo_t* cr = cairo_create(surface);
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    // The floor: lines every 0.5 m within 5 m of the eye, clipped to in front of it.
+    cairo_set_source_rgb(cr, 0.8, 0.8, 0.8);
+    cairo_set_line_width(cr, 1);
+    for (int axis = 0; axis < 2; ++axis)
+        for (int i = -10; i <= 10; ++i)
+            for (int j = -10; j < 10; ++j) {
+                Vec3 p0 = Vec3::Zero(), p1 = Vec3::Zero();
+                p0[axis] = p1[axis] = std::round(c.eye[axis] * 2) / 2 + 0.5 * i;
+                p0[1 - axis] = std::round(c.eye[1 - axis] * 2) / 2 + 0.5 * j;
+                p1[1 - axis] = p0[1 - axis] + 0.5;
+                const Vec3 q0 = camera(p0), q1 = camera(p1);
+                if (q0.z() < kNear || q1.z() < kNear) continue;
+                const Eigen::Vector2d a = pixel(q0), b = pixel(q1);
+                cairo_move_to(cr, a.x(), a.y());
+                cairo_line_to(cr, b.x(), b.y());
+                cairo_stroke(cr);
+            }
+    std::vector<std::pair<double, std::size_t>> order;
+    for (std::size_t t = 0; t < other.triangles.size(); ++t) {
+        const auto& tri = other.triangles[t];
+        const Vec3 q = camera(other.vertices[tri[0]]), r = camera(other.vertices[tri[1]]), s = camera(other.vertices[tri[2]]);
+        if (std::min({q.z(), r.z(), s.z()}) < kNear) continue;
+        order.emplace_back(-(q.z() + r.z() + s.z()), t);
+    }
+    std::sort(order.begin(), order.end());
+    const auto& colour = kColour[std::size_t(other_index)];
+    for (const auto& [depth, t] : order) {
+        const auto& tri = other.triangles[t];
+        const Vec3 normal = (other.vertices[tri[1]] - other.vertices[tri[0]]).cross(other.vertices[tri[2]] - other.vertices[tri[0]]);
+        if (normal.norm() < 1e-15 || normal.dot(other.vertices[tri[0]] - c.eye) > 0) continue;  // degenerate or facing away
+        const double shade = 0.35 + 0.65 * std::max(0.0, -normal.normalized().dot(c.forward));
+        cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
+        for (int v = 0; v < 3; ++v) {
+            const Eigen::Vector2d p = pixel(camera(other.vertices[tri[std::size_t(v)]]));
+            (v ? cairo_line_to : cairo_move_to)(cr, p.x(), p.y());
+        }
+        cairo_close_path(cr);
+        cairo_fill_preserve(cr);
+        cairo_set_line_width(cr, 0.5);
+        cairo_stroke(cr);
+    }
+    cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
+    cairo_set_line_width(cr, 2);
+    cairo_arc(cr, kEyeSize / 2.0, kEyeSize / 2.0, kCone, 0, 2 * std::numbers::pi);
+    cairo_stroke(cr);
+    cairo_move_to(cr, 10, 20);
+    cairo_set_font_size(cr, 14);
+    cairo_show_text(cr, caption.c_str());
+    cairo_destroy(cr);
+    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
+    cairo_surface_destroy(surface);
+    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+}
+
+}  // namespace
+
+void write_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    fs::create_directories(folder);
+    ObjectSource* sources[2] = {&a, &b};
+    for (const TimelineSegment& segment : edit.timeline.segments) {
+        if (!segment.key || segment.length == 0) continue;
+        const int k = segment.first + segment.length / 2;
+        const VisibilitySpec& visibility = scene.segments[std::size_t(segment.key - 1)].visibility;
+        const std::array<TriangleMesh, 2> meshes{placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b)};
+        for (int o = 0; o < 2; ++o) {
+            const EyeCamera camera = eye_camera(edit, k, o, *sources[o], meshes[std::size_t(o)], visibility.half_angle_deg);
+            const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", segment.key, k,
+                                                    "AB"[o], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
+            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", segment.key, "AB"[o]), camera, meshes[std::size_t(1 - o)], 1 - o, caption);
+        }
+    }
+}
+
+namespace {
+
+// The edit of output frame k in the file's own axes and units: capture -> scene is
+// p_s = A (u p_f) + l (A the signed axis permutation, u metres per unit, l the floor lift along
+// z), and the edit moves p_s to R(yaw) p_s + (t, lift); in the file that is p_f -> L p_f + t_f with
+// L = A^T R A and t_f = A^T (t, lift) / u (R l = l: the turn is about z).
+Eigen::Isometry3d edit_in_file(const ObjectFrameEdit& e, const UnitsAndAxes& units) {
+    const AxisMap map = units.map();
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    for (int i = 0; i < 3; ++i) a(i, map.source[std::size_t(i)]) = map.sign[std::size_t(i)];
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.linear() = a.transpose() * Eigen::AngleAxisd(e.yaw, Vec3::UnitZ()).toRotationMatrix() * a;
+    t.translation() = a.transpose() * Vec3(e.translation.x(), e.translation.y(), e.lift) / units.metres_per_unit;
+    return t;
+}
+
+// One output frame's row: the source frame's channels, the root's rewritten to carry the edit.
+std::vector<double> edited_row(const BvhMotion& motion, const ObjectFrameEdit& e, const UnitsAndAxes& units) {
+    const BvhJoint& root = motion.joints[0];
+    const double* source = motion.values.data() + std::size_t(e.source) * std::size_t(motion.channel_count);
+    std::vector<double> row(source, source + motion.channel_count);
+    const Eigen::Isometry3d moved = edit_in_file(e, units) * motion.global_transforms(e.source)[0];
+    std::array<int, 3> axes{};
+    std::array<double, 3> near{};
+    std::array<int, 3> slots{};
+    int rotations = 0;
+    for (std::size_t c = 0; c < root.channels.size(); ++c) {
+        const int axis = int(root.channels[c]) % 3, slot = root.first_channel + int(c);
+        if (int(root.channels[c]) < 3) {
+            row[std::size_t(slot)] = moved.translation()[axis] - root.offset[axis];
+        } else {
+            axes[std::size_t(rotations)] = axis, near[std::size_t(rotations)] = row[std::size_t(slot)], slots[std::size_t(rotations)] = slot;
+            ++rotations;
+        }
+    }
+    const std::array<double, 3> degrees = euler_degrees_near(moved.linear(), axes, near);
+    for (int r = 0; r < 3; ++r) row[std::size_t(slots[std::size_t(r)])] = degrees[std::size_t(r)];
+    return row;
+}
+
+// Whether the root can carry a rigid edit: three position and three rotation channels.
+bool root_carries_edit(const BvhJoint& root) {
+    int positions = 0, rotations = 0;
+    for (BvhJoint::Channel c : root.channels) (int(c) < 3 ? positions : rotations) += 1;
+    return positions == 3 && rotations == 3;
+}
+
+}  // namespace
+
+std::vector<std::string> write_edited_bvh(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    std::vector<std::string> written;
+    ObjectSource* sources[2] = {&a, &b};
+    for (int o = 0; o < 2; ++o) {
+        const BvhMotion* motion = sources[o]->motion();
+        if (!motion || !root_carries_edit(motion->joints[0])) continue;
+        BvhMotion out = *motion;
+        out.source.clear();
+        out.first_frame = 0;
+        out.frame_count = edit.timeline.length();
+        out.values.clear();
+        for (const ObjectFrameEdit& e : edit.frames[std::size_t(o)]) {
+            const std::vector<double> row = edited_row(*motion, e, sources[o]->spec().units);
+            out.values.insert(out.values.end(), row.begin(), row.end());
+        }
+        const std::string name = fmt::format("{}.bvh", "AB"[o]);
+        write_file(folder / name, bvh_text(out));
+        written.push_back(name);
+    }
+    return written;
+}
+
 void write_paths_picture(const fs::path& svg, const fs::path& png, const EditResult& edit) {
     const int length = edit.timeline.length();
     Eigen::AlignedBox2d world;

@@ -2,6 +2,7 @@
 // Files of the edited scene (docs/method.md section 10): per-frame transforms, the transformed meshes of
 // every output frame, and a top view of the original and edited root paths.
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "src/edit/edit.hpp"
@@ -27,6 +28,18 @@ int write_scene_frames(const std::filesystem::path& folder, const EditResult& ed
 // meshes from the side (looking across the line between their roots, flat shaded, A orange, B
 // blue, the floor grey), for a quick look without a mesh viewer. Returns the frames shown.
 std::vector<int> write_key_views(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+
+// `folder`/key_N_from_A.png and key_N_from_B.png: the paper's first-person views (its Fig. 8) at
+// the middle output frame of key segment N: from each performer's eye (its view track, moved with
+// it) along its gaze, the other performer shaded, the floor grid, and the visibility cone's
+// half-angle as a circle around the centre.
+void write_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+
+// `folder`/A.bvh and B.bvh for the objects read from BVH takes: one frame per output frame (the
+// scene's rate), each the source frame's channels with the root's position and rotation rewritten
+// to carry the edit (in the file's own units and axes); every other channel untouched. A root
+// without three position and three rotation channels cannot carry it: no file. Returns the names.
+std::vector<std::string> write_edited_bvh(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
 // paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
 // placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),

@@ -61,7 +61,11 @@ Json capture_keys_json(const KeySegment& segment) {
 // views/key_N.png and the output frame each shows.
 Json views_json(const std::vector<int>& frames) {
     Json views = Json::array();
-    for (std::size_t i = 0; i < frames.size(); ++i) views.push_back({{"file", fmt::format("views/key_{}.png", i + 1)}, {"output_frame", frames[i]}});
+    for (std::size_t i = 0; i < frames.size(); ++i)
+        views.push_back({{"file", fmt::format("views/key_{}.png", i + 1)},
+                         {"from_A", fmt::format("views/key_{}_from_A.png", i + 1)},
+                         {"from_B", fmt::format("views/key_{}_from_B.png", i + 1)},
+                         {"output_frame", frames[i]}});
     return views;
 }
 
@@ -240,6 +244,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"mesh_files", files.mesh_files},
                       {"scene", files.glb ? nlohmann::json("scene.glb") : nlohmann::json(nullptr)},
                       {"scene_bytes", files.glb_bytes},
+                      {"bvh", files.bvh},
                       {"paths", {"paths.svg", "paths.png"}},
                       {"views", views_json(files.view_frames)}};
 }

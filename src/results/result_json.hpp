@@ -40,6 +40,7 @@ struct EditFiles {
     bool frames = false;
     int mesh_files = 0;
     bool glb = false;  // scene.glb
+    std::vector<std::string> bvh;  // A.bvh, B.bvh: the edited takes
     std::uint64_t glb_bytes = 0;
     std::vector<int> view_frames;  // views/key_N.png: the output frame each shows
 };

@@ -27,6 +27,8 @@ public:
     const std::vector<std::string>& label_names() const { return label_names_; }
     // What floor = "auto" found (empty otherwise), for `amhv check`.
     const std::string& floor_note() const { return floor_note_; }
+    // The loaded take of a BVH object (at the scene's rate), else null.
+    const BvhMotion* motion() const { return motion_ ? &*motion_ : nullptr; }
     // The lift the object's frames get (-floor).
     double lift() const { return spec_.units.lift; }
 
