@@ -170,7 +170,7 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
         c.solutions.reserve(s.group.size());
-        s.group.for_each([&](const PoseIndex& p) { c.solutions.push_back({p.i, p.j, radians(angles::wrap_degrees(p.k * s.describe.angle_step_deg))}); });
+        s.group.for_each([&](const PoseIndex& p) { c.solutions.push_back({p.i, p.j, radians(s.describe.theta_deg(p.k))}); });
         // The editor's placements leave B's height as captured (z = 0): with z_range the prior
         // gains mu z^2, so that among equal poses the one least raised or lowered wins.
         if (key.intent.prefers() || s.group.any_raised()) {
@@ -299,6 +299,13 @@ std::string frame_ranges(const std::vector<int>& frames) {
     return out;
 }
 
+// The output frames of one timeline segment.
+std::vector<int> segment_frames(const TimelineSegment& seg) {
+    std::vector<int> frames(std::size_t(seg.length));
+    std::iota(frames.begin(), frames.end(), seg.first);
+    return frames;
+}
+
 struct SeparationContext {
     const Scene& scene;
     ObjectSource* sources[2];
@@ -314,8 +321,7 @@ struct SeparationContext {
 TransitionCheck separate_transition(const SeparationContext& c, int s, const EditOptions& options, EditResult& r, std::vector<FrameCheck>& checks) {
     const TimelineSegment seg = r.timeline.segments[std::size_t(s)];
     const double h = c.scene.sampling.voxel;
-    std::vector<int> frames(std::size_t(seg.length));
-    std::iota(frames.begin(), frames.end(), seg.first);
+    const std::vector<int> frames = segment_frames(seg);
     TransitionCheck t;
     t.timeline_segment = s;
     t.frames = seg.length;
@@ -372,9 +378,7 @@ void check_and_separate(const SeparationContext& c, const EditOptions& options, 
         if (seg.key == 0) {
             r.transition_checks.push_back(separate_transition(c, int(s), options, r, checks));
         } else {
-            std::vector<int> frames(std::size_t(seg.length));
-            std::iota(frames.begin(), frames.end(), seg.first);
-            checks = check_frames(r, frames, *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
+            checks = check_frames(r, segment_frames(seg), *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
         }
         all.insert(all.end(), checks.begin(), checks.end());
     }

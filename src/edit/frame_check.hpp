@@ -4,11 +4,7 @@
 // chosen backend (Vulkan, or the plain CPU reference: identical volumes), and the voxels inside
 // both counted. The sweep certifies the key segments (their fidelity parts never share a voxel);
 // this check covers the transitional segments, where the path optimisation moves the performers.
-#include <cstdint>
-#include <optional>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "src/edit/edit.hpp"
 #include "src/voxelise/voxelise.hpp"

@@ -29,6 +29,25 @@ std::string segment_name(const TimelineSegment& s, int index) {
     return s.key ? fmt::format("key {}", s.key) : fmt::format("transition {}", index / 2);
 }
 
+// One flat-shaded triangle of a performer's colour; the thin outline closes the hairline gaps
+// antialiasing leaves between neighbouring triangles.
+void fill_triangle(cairo_t* cr, const std::array<Eigen::Vector2d, 3>& corners, double shade, const std::array<std::uint8_t, 3>& colour) {
+    cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
+    for (int c = 0; c < 3; ++c) (c ? cairo_line_to : cairo_move_to)(cr, corners[std::size_t(c)].x(), corners[std::size_t(c)].y());
+    cairo_close_path(cr);
+    cairo_fill_preserve(cr);
+    cairo_set_line_width(cr, 0.5);
+    cairo_stroke(cr);
+}
+
+// Ends the drawing and writes the surface as `path`; throws naming the file when it cannot.
+void finish_png(cairo_t* cr, cairo_surface_t* surface, const fs::path& path) {
+    cairo_destroy(cr);
+    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
+    cairo_surface_destroy(surface);
+    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+}
+
 // ---- the paths picture: one list of shapes drawn into SVG text and into a cairo PNG ----
 
 struct Shape {
@@ -85,10 +104,7 @@ void draw_png(const fs::path& path, int w, int h, const std::vector<Shape>& shap
             cairo_fill(cr);
         }  // text only in the SVG: PNG bytes must not depend on the fonts a machine has
     }
-    cairo_destroy(cr);
-    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
-    cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+    finish_png(cr, surface, path);
 }
 
 }  // namespace
@@ -160,10 +176,8 @@ void write_frame_checks_csv(const fs::path& path, const EditResult& edit) {
     std::string text = "frame,segment,overlap_voxels,overlap_cm3,gap_mm\n";
     const double voxel_cm3 = std::pow(edit.voxel * 100, 3);
     for (const FrameCheck& f : edit.frame_checks) {
-        const auto seg = std::find_if(edit.timeline.segments.begin(), edit.timeline.segments.end(),
-                                      [&](const TimelineSegment& s) { return f.frame >= s.first && f.frame < s.first + s.length; });
-        const std::string name = seg->key ? fmt::format("key {}", seg->key) : fmt::format("transition {}", (seg - edit.timeline.segments.begin()) / 2);
-        text += fmt::format("{},{},{},{:.3f},{}\n", f.frame, name, f.overlap, double(f.overlap) * voxel_cm3,
+        const int s = edit.timeline.segment[std::size_t(f.frame)];
+        text += fmt::format("{},{},{},{:.3f},{}\n", f.frame, segment_name(edit.timeline.segments[std::size_t(s)], s), f.overlap, double(f.overlap) * voxel_cm3,
                             f.gap_m ? fmt::format("{:.1f}", *f.gap_m * 1000) : std::string());
     }
     write_file(path, text);
@@ -231,16 +245,8 @@ std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit,
             const Vec3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
             if (normal.norm() < 1e-15 || normal.dot(view) > 0) continue;  // degenerate or facing away
             const double shade = 0.35 + 0.65 * std::max(0.0, normal.normalized().dot(light));
-            const auto& colour = kColour[t < frame.faces_from[1] ? 0 : 1];
-            cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
-            for (int c = 0; c < 3; ++c) {
-                const Eigen::Vector2d p = pixel(mesh.vertices[tri[std::size_t(c)]]);
-                (c ? cairo_line_to : cairo_move_to)(cr, p.x(), p.y());
-            }
-            cairo_close_path(cr);
-            cairo_fill_preserve(cr);
-            cairo_set_line_width(cr, 0.5);  // closes the hairline gaps antialiasing leaves between triangles
-            cairo_stroke(cr);
+            fill_triangle(cr, {pixel(mesh.vertices[tri[0]]), pixel(mesh.vertices[tri[1]]), pixel(mesh.vertices[tri[2]])}, shade,
+                          kColour[t < frame.faces_from[1] ? 0 : 1]);
         }
         const double floor_y = pixel(Vec3(0, 0, 0)).y();
         cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
@@ -248,11 +254,7 @@ std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit,
         cairo_move_to(cr, kMargin / 2.0, floor_y + 0.5);
         cairo_line_to(cr, kWidth - kMargin / 2.0, floor_y + 0.5);
         cairo_stroke(cr);
-        cairo_destroy(cr);
-        const fs::path path = folder / fmt::format("key_{}.png", segment.key);
-        const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
-        cairo_surface_destroy(surface);
-        if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+        finish_png(cr, surface, folder / fmt::format("key_{}.png", segment.key));
     }
     return shown;
 }
@@ -332,15 +334,8 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
         const Vec3 normal = (other.vertices[tri[1]] - other.vertices[tri[0]]).cross(other.vertices[tri[2]] - other.vertices[tri[0]]);
         if (normal.norm() < 1e-15 || normal.dot(other.vertices[tri[0]] - c.eye) > 0) continue;  // degenerate or facing away
         const double shade = 0.35 + 0.65 * std::max(0.0, -normal.normalized().dot(c.forward));
-        cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
-        for (int v = 0; v < 3; ++v) {
-            const Eigen::Vector2d p = pixel(camera(other.vertices[tri[std::size_t(v)]]));
-            (v ? cairo_line_to : cairo_move_to)(cr, p.x(), p.y());
-        }
-        cairo_close_path(cr);
-        cairo_fill_preserve(cr);
-        cairo_set_line_width(cr, 0.5);
-        cairo_stroke(cr);
+        fill_triangle(cr, {pixel(camera(other.vertices[tri[0]])), pixel(camera(other.vertices[tri[1]])), pixel(camera(other.vertices[tri[2]]))},
+                      shade, colour);
     }
     cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
     cairo_set_line_width(cr, 2);
@@ -349,10 +344,7 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
     cairo_move_to(cr, 10, 20);
     cairo_set_font_size(cr, 14);
     cairo_show_text(cr, caption.c_str());
-    cairo_destroy(cr);
-    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
-    cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
+    finish_png(cr, surface, path);
 }
 
 }  // namespace

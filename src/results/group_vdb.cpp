@@ -69,8 +69,8 @@ void check_grid_lattice(const openvdb::BoolGrid& grid, const GroupLattice& expec
         fail(where, "grid {} is the group of another scene (scene_hash differs)", name);
 }
 
-// The active voxels of one height's grid as runs of i along (k, j) rows, in the sweep's order
-// (theta, y, x), merged where they continue across leaves. Leaves (8^3 poses) are read row by row
+// The active voxels of one height's grid as pieces of runs of i along (k, j) rows, in the sweep's
+// order (theta, y, x); SolutionGroup::add_run joins those that continue across leaves. Leaves (8^3 poses) are read row by row
 // from their masks; solid blocks stored as tiles (pruneGrid) expand row by row of their box.
 std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l) {
     std::vector<PoseRun> pieces;
@@ -98,13 +98,7 @@ std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l) {
             for (int j = box.min().y(); j <= box.max().y(); ++j) pieces.push_back({l, k, j, box.min().x(), box.max().x()});
     }
     std::sort(pieces.begin(), pieces.end(), [](const PoseRun& a, const PoseRun& b) { return std::tie(a.k, a.j, a.i_first) < std::tie(b.k, b.j, b.i_first); });
-    std::vector<PoseRun> runs;
-    for (const PoseRun& p : pieces)
-        if (!runs.empty() && runs.back().k == p.k && runs.back().j == p.j && runs.back().i_last + 1 == p.i_first)
-            runs.back().i_last = p.i_last;
-        else
-            runs.push_back(p);
-    return runs;
+    return pieces;
 }
 
 // The resolved scene as it reads wherever its folder lies: without the comment that names the
@@ -178,13 +172,13 @@ void write_group_vdb(const std::filesystem::path& path, const SolutionGroup& gro
         by_level[l] = grid;
         grids.push_back(grid);
     }
-    for (auto& [l, grid] : by_level) {
-        auto access = grid->getAccessor();
-        for (const PoseRun& run : group.runs())
-            if (run.l == l)
-                for (int i = run.i_first; i <= run.i_last; ++i) access.setValueOn(openvdb::Coord(i, run.j, run.k), true);
-        grid->pruneGrid();
-    }
+    // One pass over the runs, each into its height's grid.
+    std::map<int, openvdb::BoolGrid::Accessor> access;
+    for (auto& [l, grid] : by_level) access.emplace(l, grid->getAccessor());
+    for (const PoseRun& run : group.runs())
+        for (int i = run.i_first; i <= run.i_last; ++i) access.at(run.l).setValueOn(openvdb::Coord(i, run.j, run.k), true);
+    access.clear();
+    for (auto& [l, grid] : by_level) grid->pruneGrid();
     try {
         openvdb::io::File file(path.string());
         file.write(grids);

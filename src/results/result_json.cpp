@@ -268,10 +268,10 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
             KeySweep k = key_sweep_of(s, key, scene);
             const fs::path group_file = dir / fmt::format("segment_{}", key.index) / "group.vdb";
             const auto z_m = s.at("range").at("z_m").get<std::array<double, 2>>();
-            GroupLattice lattice = group_lattice(scene, key.index, PoseRange{});
-            lattice.z_first = int(std::lround(z_m[0] / scene.sampling.voxel));
-            lattice.z_last = int(std::lround(z_m[1] / scene.sampling.voxel));
-            k.group = read_group_vdb(group_file, lattice);
+            PoseRange heights;
+            heights.z_first = int(std::lround(z_m[0] / scene.sampling.voxel));
+            heights.z_last = int(std::lround(z_m[1] / scene.sampling.voxel));
+            k.group = read_group_vdb(group_file, group_lattice(scene, key.index, heights));
             check_group(k.group, s, scene, group_file);
             record.segments.push_back(Json::parse(s.dump()));
             record.sweeps.push_back(std::move(k));

@@ -63,12 +63,6 @@ bool SolutionGroup::any_raised() const {
     return std::any_of(runs_.begin(), runs_.end(), [](const PoseRun& r) { return r.l != 0; });
 }
 
-bool SolutionGroup::operator==(const SolutionGroup& other) const {
-    return size() == other.size() && std::equal(runs_.begin(), runs_.end(), other.runs_.begin(), other.runs_.end(), [](const PoseRun& a, const PoseRun& b) {
-               return std::tie(a.l, a.k, a.j, a.i_first, a.i_last) == std::tie(b.l, b.k, b.j, b.i_first, b.i_last);
-           });
-}
-
 SolutionGroup solution_group(const SweepResult& result) {
     return solution_group(result, [](const PoseIndex&) { return true; });
 }
@@ -82,7 +76,7 @@ Solution PoseDescriber::operator()(const PoseIndex& p) const {
     s.x = p.i * voxel;
     s.y = p.j * voxel;
     s.z = p.l * voxel;
-    s.theta_deg = angles::wrap_degrees(p.k * angle_step_deg);
+    s.theta_deg = theta_deg(p.k);
     s.distance = std::hypot(s.x, s.y);
     if (s.distance > 0) {
         Eigen::Vector2d towards_b(s.x, s.y);
@@ -93,6 +87,8 @@ Solution PoseDescriber::operator()(const PoseIndex& p) const {
     }
     return s;
 }
+
+double PoseDescriber::theta_deg(int k) const { return angles::wrap_degrees(k * angle_step_deg); }
 
 PoseDescriber describer(const SweepProblem& problem) {
     return {problem.voxel, problem.angle_step_deg, problem.a.facing, problem.b.facing};

@@ -23,6 +23,7 @@ struct PoseIndex {
 struct PoseRun {
     std::int32_t l = 0, k = 0, j = 0, i_first = 0, i_last = 0;
     std::uint64_t size() const { return std::uint64_t(i_last - i_first + 1); }
+    bool operator==(const PoseRun&) const = default;
 };
 
 class SolutionGroup {
@@ -60,7 +61,7 @@ public:
         }
     }
 
-    bool operator==(const SolutionGroup& other) const;
+    bool operator==(const SolutionGroup& other) const { return runs_ == other.runs_; }
 
 private:
     std::size_t run_of(std::uint64_t n) const;  // the run holding member n
@@ -90,6 +91,7 @@ struct PoseDescriber {
     double voxel = 0.01, angle_step_deg = 2;
     Eigen::Vector2d facing_a = Eigen::Vector2d::UnitX(), facing_b = Eigen::Vector2d::UnitX();
     Solution operator()(const PoseIndex& p) const;
+    double theta_deg(int k) const;  // B's turn at angle index k, wrapped to (-180, 180]
 };
 PoseDescriber describer(const SweepProblem& problem);
 
