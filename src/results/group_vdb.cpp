@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <string_view>
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/io/Stream.h>
 
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
@@ -41,17 +43,18 @@ std::uint64_t fnv1a(std::string_view bytes) {
     return hash;
 }
 
-// Every grid of `path`, or only their metadata; throws naming the file when it cannot be read.
-openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path, bool metadata_only) {
+// Every grid of `path`; throws naming the file when it cannot be read.
+openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path) {
     openvdb::initialize();
     const std::string where = path.string();
     if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
     try {
-        openvdb::io::File file(where);
-        file.open(/*delayLoad=*/!metadata_only);
-        openvdb::GridPtrVecPtr grids = metadata_only ? file.readAllGridMetadata() : file.getGrids();
-        file.close();
-        return grids;
+        // From memory as a stream: io::File on a truncated file can spend seconds or hang in its
+        // header and metadata reads, where a stream that ends simply fails.
+        std::istringstream bytes(read_file_bytes(path), std::ios::binary);
+        bytes.exceptions(std::ios::failbit | std::ios::badbit);
+        openvdb::io::Stream stream(bytes, /*delayLoad=*/false);
+        return stream.getGrids();
     } catch (const std::exception& e) {
         fail(where, "is not a readable OpenVDB file ({})", e.what());
     }
@@ -191,7 +194,7 @@ void write_group_vdb(const std::filesystem::path& path, const SolutionGroup& gro
 
 SolutionGroup read_group_vdb(const std::filesystem::path& path, const GroupLattice& expected) {
     const std::string where = path.string();
-    const openvdb::GridPtrVecPtr grids = read_grids(path, false);
+    const openvdb::GridPtrVecPtr grids = read_grids(path);
     SolutionGroup group;
     for (int l = expected.z_first; l <= expected.z_last; ++l) {
         const std::string name = grid_name(expected, l);
@@ -211,7 +214,7 @@ SolutionGroup read_group_vdb(const std::filesystem::path& path, const GroupLatti
 
 GroupLattice read_group_lattice(const std::filesystem::path& path) {
     const std::string where = path.string();
-    const openvdb::GridPtrVecPtr grids = read_grids(path, true);
+    const openvdb::GridPtrVecPtr grids = read_grids(path);
     if (grids->empty()) fail(where, "holds no grid: not an amhv solution group");
     GroupLattice lattice;
     const openvdb::GridBase& first = *grids->front();
