@@ -1,6 +1,7 @@
 // The command line on real files: outputs, EXR contents, volume round trip, determinism and every
 // kind of bad input (one-line error, non-zero exit, no partial output).
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <OpenEXR/ImfChannelList.h>
@@ -10,12 +11,14 @@
 #include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 #include <nlohmann/json.hpp>
 
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
 #include "src/io/amhv_file.hpp"
 #include "src/io/bvh.hpp"
+#include "src/io/exr_slices.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -143,6 +146,56 @@ TEST(VolumeFile, OccupancyPastTheLastFrameIsRefused) {
         EXPECT_NE(message.find(path.string()), std::string::npos) << message;
         EXPECT_NE(message.find("occupied in frame 28, past the last frame 7"), std::string::npos) << message;
     }
+}
+
+// mhv --glb: the occupied voxels' outer faces (each face between an occupied voxel and an empty one,
+// counted here from mhv.amhv), two triangles each, coloured by the voxel's t_end; the validator
+// accepts it.
+TEST(Cli, MhvGlbIsTheVolumesSurfaceColouredByTEnd) {
+    test::TempDir tmp;
+    make_sequence(tmp.path() / "ball");
+    const auto out = tmp.path() / "out";
+    auto result = test::run_amhv(fmt::format("mhv --meshes '{}/ball/frame_%04d.obj' --frames 2:9 --unit cm --up y --voxel 0.02 --no-exr --glb --out '{}'",
+                                             tmp.path().string(), out.string()));
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    EXPECT_EQ(nlohmann::json::parse(read_text(out / "mhv.json"))["files"]["glb"], "mhv.glb");
+    const auto valid = test::validate_gltf(out / "mhv.glb");
+    EXPECT_EQ(valid.exit_code, 0) << valid.output;
+    EXPECT_NE(valid.output.find(": 0 errors, 0 warnings"), std::string::npos) << valid.output;
+
+    const Amhv volume = read_amhv(out / "mhv.amhv");
+    const auto& d = volume.grid().dims;
+    auto occupied = [&](int x, int y, int z) {
+        return x >= 0 && y >= 0 && z >= 0 && x < d[0] && y < d[1] && z < d[2] && volume.t_end(volume.grid().index(x, y, z)) >= 0;
+    };
+    std::size_t faces = 0;
+    int latest = -1;
+    for (int z = 0; z < d[2]; ++z)
+        for (int y = 0; y < d[1]; ++y)
+            for (int x = 0; x < d[0]; ++x)
+                if (occupied(x, y, z)) {
+                    latest = std::max(latest, volume.t_end(volume.grid().index(x, y, z)));
+                    faces += !occupied(x - 1, y, z) + !occupied(x + 1, y, z) + !occupied(x, y - 1, z) + !occupied(x, y + 1, z) +
+                             !occupied(x, y, z - 1) + !occupied(x, y, z + 1);
+                }
+    ASSERT_GT(faces, 100u);
+    tinygltf::Model model;
+    tinygltf::TinyGLTF loader;
+    std::string error, warning;
+    ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &error, &warning, (out / "mhv.glb").string())) << error;
+    const tinygltf::Primitive& p = model.meshes.at(0).primitives.at(0);
+    EXPECT_EQ(model.accessors[std::size_t(p.indices)].count, 6 * faces);
+    EXPECT_EQ(model.accessors[std::size_t(p.attributes.at("POSITION"))].count, 4 * faces);
+    // Every colour is the EXR slices' colour of some t_end, and the last frame's is there (the ball
+    // is still in the volume at the segment's end).
+    const tinygltf::Accessor& colours = model.accessors[std::size_t(p.attributes.at("COLOR_0"))];
+    const auto* c = reinterpret_cast<const float*>(model.buffers[0].data.data() + model.bufferViews[std::size_t(colours.bufferView)].byteOffset);
+    std::set<std::array<float, 3>> expected, seen;
+    for (int t = 0; t <= 7; ++t) expected.insert(time_colour(t / 7.0));
+    for (std::size_t i = 0; i < colours.count; ++i) seen.insert({c[3 * i], c[3 * i + 1], c[3 * i + 2]});
+    for (const auto& colour : seen) EXPECT_TRUE(expected.count(colour)) << colour[0] << " " << colour[1] << " " << colour[2];
+    EXPECT_EQ(latest, 7);
+    EXPECT_TRUE(seen.count(time_colour(1.0)));
 }
 
 TEST(Cli, BvhBodyAndVdb) {

@@ -424,3 +424,125 @@ TEST(Edit, AnEmptyGroupStopsTheEditUnlessAllowed) {
 
 }  // namespace
 }  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// Rewrites an OBJ of the fixture as a textured capture would be: a material library one folder
+// up, a texture coordinate and a normal per vertex, and a material on the faces.
+void texture_obj(const fs::path& file) {
+    std::istringstream in(read_text(file));
+    std::string v_lines, vt_lines, vn_lines, f_lines;
+    int n = 0;
+    for (std::string line; std::getline(in, line);) {
+        std::istringstream words(line);
+        std::string tag;
+        words >> tag;
+        if (tag == "v") {
+            double x, y, z;
+            words >> x >> y >> z;
+            v_lines += line + "\n";
+            vt_lines += fmt::format("vt {} {}\n", (n % 17) / 16.0, (n % 13) / 12.0);
+            const Vec3 normal = Vec3(std::cos(n * 0.3), std::sin(n * 0.3), 0.5).normalized();
+            vn_lines += fmt::format("vn {:.6f} {:.6f} {:.6f}\n", normal.x(), normal.y(), normal.z());
+            ++n;
+        } else if (tag == "f") {
+            int a, b, c;
+            words >> a >> b >> c;
+            f_lines += fmt::format("f {0}/{0}/{0} {1}/{1}/{1} {2}/{2}/{2}\n", a, b, c);
+        }
+    }
+    std::ofstream(file) << "# a textured capture\nmtllib ../materials/skin.mtl\no performer\n" << v_lines << vt_lines << vn_lines
+                        << "usemtl skin\ns 1\n" << f_lines;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+}
+
+// OBJ input with UVs, normals and a textured material keeps them: frames/B_NNNN.obj holds the
+// source frame's lines unchanged but for positions and normals (moved exactly as transforms.json
+// says, in the file's units) and the library's name (a copy, with its texture, in the same
+// layout); scene.glb carries the UVs (v flipped), the material and the embedded PNG.
+TEST(Edit, TexturedObjFramesKeepTheirAppearance) {
+    EditFixture fixture;
+    const fs::path root = fixture.dir.path();
+    for (int f = 0; f < 45; ++f) texture_obj(root / "b" / fmt::format("{:04d}.obj", f));
+    fs::create_directories(root / "materials/tex");
+    std::ofstream(root / "materials/skin.mtl") << "newmtl skin\nKd 0.8 0.6 0.5\nmap_Kd tex/skin.png\n";
+    cairo_surface_t* texture = cairo_image_surface_create(CAIRO_FORMAT_RGB24, 4, 4);
+    ASSERT_EQ(cairo_surface_write_to_png(texture, (root / "materials/tex/skin.png").c_str()), CAIRO_STATUS_SUCCESS);
+    cairo_surface_destroy(texture);
+
+    const fs::path out = root / "edit";
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_EQ(read_json(out / "result.json").at("output").at("obj_files").get<int>(), 40);
+    EXPECT_FALSE(fs::exists(out / "frames/A_0000.obj"));  // A's frames have no appearance to keep
+    const auto transforms = read_json(out / "transforms.json");
+    for (int k : {0, 20, 39}) {
+        const auto& move = transforms.at("output").at(std::size_t(k)).at("B");
+        const fs::path source = root / "b" / fmt::format("{:04d}.obj", move.at("source").get<int>());
+        const auto before = lines_of(read_text(source));
+        const auto after = lines_of(read_text(out / "frames" / fmt::format("B_{:04d}.obj", k)));
+        ASSERT_EQ(before.size(), after.size());
+        const double yaw = move.at("yaw_deg").get<double>() * std::numbers::pi / 180;
+        for (std::size_t i = 0; i < before.size(); ++i) {
+            std::istringstream was(before[i]), is(after[i]);
+            std::string tag, tag_after;
+            was >> tag;
+            is >> tag_after;
+            ASSERT_EQ(tag, tag_after) << i;
+            if (tag == "v" || tag == "vn") {
+                Vec3 p, q;
+                was >> p.x() >> p.y() >> p.z();
+                is >> q.x() >> q.y() >> q.z();
+                const Eigen::Vector2d xy = tag == "v" ? apply(move, {p.x(), p.y()}) : Eigen::Vector2d(Eigen::Rotation2Dd(yaw) * Eigen::Vector2d(p.x(), p.y()));
+                const double z = tag == "v" ? p.z() + move.at("z").get<double>() : p.z();
+                EXPECT_NEAR((q - Vec3(xy.x(), xy.y(), z)).norm(), 0, 1e-6) << before[i];
+            } else if (tag == "mtllib") {
+                std::string library;
+                is >> library;
+                EXPECT_EQ(library, "B_materials/materials/skin.mtl");
+                EXPECT_EQ(read_text(out / "frames" / library), read_text(root / "materials/skin.mtl"));
+            } else {
+                EXPECT_EQ(before[i], after[i]);  // UVs, faces, material names, groups: the same bytes
+            }
+        }
+    }
+    EXPECT_EQ(read_text(out / "frames/B_materials/materials/tex/skin.png"), read_text(root / "materials/tex/skin.png"));
+
+    const auto valid = test::validate_gltf(out / "scene.glb");
+    EXPECT_EQ(valid.exit_code, 0) << valid.output;
+    EXPECT_NE(valid.output.find(": 0 errors"), std::string::npos) << valid.output;
+    tinygltf::Model model;
+    tinygltf::TinyGLTF loader;
+    std::string error, warning;
+    ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &error, &warning, (out / "scene.glb").string())) << error;
+    ASSERT_EQ(model.images.size(), 1u);
+    EXPECT_EQ(model.images[0].mimeType, "image/png");
+    const tinygltf::Primitive& b20 = model.meshes[std::size_t(model.nodes[41].mesh)].primitives.at(0);
+    ASSERT_TRUE(b20.attributes.count("TEXCOORD_0"));
+    const tinygltf::Material& material = model.materials.at(std::size_t(b20.material));
+    EXPECT_EQ(material.name, "B skin");
+    EXPECT_GE(material.pbrMetallicRoughness.baseColorTexture.index, 0);
+    EXPECT_NEAR(material.pbrMetallicRoughness.baseColorFactor[1], 0.6, 1e-9);
+    // The first corner of the first face is the source's vertex 1: its UV with v flipped.
+    const tinygltf::Accessor& uv = model.accessors[std::size_t(b20.attributes.at("TEXCOORD_0"))];
+    const auto* t = reinterpret_cast<const float*>(model.buffers[0].data.data() + model.bufferViews[std::size_t(uv.bufferView)].byteOffset);
+    const auto source = lines_of(read_text(root / "b" / fmt::format("{:04d}.obj", transforms.at("output").at(20).at("B").at("source").get<int>())));
+    int first_corner = 0;
+    for (const std::string& line : source)
+        if (line.rfind("f ", 0) == 0) {
+            first_corner = std::stoi(line.substr(2));
+            break;
+        }
+    EXPECT_FLOAT_EQ(t[0], float(((first_corner - 1) % 17) / 16.0));
+    EXPECT_FLOAT_EQ(t[1], float(1.0 - ((first_corner - 1) % 13) / 12.0));
+}
+
+}  // namespace
+}  // namespace amhv

@@ -2,6 +2,7 @@
 
 #include "src/body/shapes.hpp"
 #include "src/body/skeleton_roles.hpp"
+#include "src/body/skinned_body.hpp"
 #include "src/core/error.hpp"
 
 #include <algorithm>
@@ -79,6 +80,7 @@ std::vector<std::string> body_part_names(const BvhMotion& motion) {
 }
 
 std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options) {
+    if (options.skinned) return skinned_body_parts(*options.skinned, motion, frame, options.units);
     auto global = motion.global_transforms(frame);
     auto world = [&](std::size_t j) { return to_scene_point(global[j].translation(), options.units); };
     const std::vector<std::string> names = role_names(motion);  // the joints by role, in one vocabulary

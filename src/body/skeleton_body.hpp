@@ -1,6 +1,8 @@
 #pragma once
 // A closed body mesh built around a skeleton's bones: one capsule per bone with a radius that
 // looks like a person, so the non-zero winding voxelisation sees one solid body.
+#include <memory>
+
 #include "src/core/geometry.hpp"
 #include "src/io/bvh.hpp"
 #include "src/io/mesh_sequence.hpp"
@@ -16,10 +18,13 @@ double bone_radius(const std::string& parent, const std::string& child);
 inline constexpr double kHandLength = 0.18;
 inline constexpr double kThumbLength = 0.11;
 
+struct SkinnedFit;
 struct SkeletonBodyOptions {
     UnitsAndAxes units{0.0564444, UpAxis::Y};  // CMU defaults
     int segments = 12;                          // around each capsule
     int cap_rings = 4;
+    // Set: the skinned human fitted to the take (src/body/skinned_body.hpp) instead of capsules.
+    std::shared_ptr<const SkinnedFit> skinned;
 };
 
 // The body part (head, torso, left_upper_arm, left_forearm, left_hand, ..., right_foot) of the bone

@@ -1,5 +1,6 @@
 #include "src/cli/bvh_options.hpp"
 
+#include "src/body/skinned_body.hpp"
 #include "src/core/error.hpp"
 
 namespace amhv::cli {
@@ -7,6 +8,13 @@ namespace amhv::cli {
 void add_bvh_options(CLI::App& command, BvhArguments& args) {
     command.add_option("--fps", args.fps, "BVH: resample the take to this frame rate (frame k = the pose at k/fps s; default: the file's rate)");
     command.add_option("--tpose", args.tpose, "BVH: frame 0 is a converter's T-pose: auto (detect), skip or keep")->capture_default_str();
+    command.add_option("--body", args.body, "BVH: capsules around the bones, or skinned (the CC0 Mesh2Motion human fitted to the take)")
+        ->capture_default_str();
+}
+
+void apply_body_option(const BvhArguments& args, const BvhMotion& motion, SkeletonBodyOptions& options) {
+    if (parse_body_kind(args.body, "--body") == BodyKind::Skinned)
+        options.skinned = fit_skin_model(load_skin_model(shipped_body_model()), motion, options.units);
 }
 
 BvhLoadOptions bvh_load_options(const BvhArguments& args) {

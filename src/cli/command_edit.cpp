@@ -8,6 +8,7 @@
 #include "src/cli/commands.hpp"
 #include "src/pipeline/sweep_stage.hpp"
 #include "src/core/error.hpp"
+#include "src/io/files.hpp"
 #include "src/io/output_dir.hpp"
 
 namespace amhv::cli {
@@ -16,6 +17,7 @@ namespace {
 
 struct EditArguments {
     std::string scene, out, backend = "vulkan";
+    std::string body;  // the demo's --body: given, every BVH object gets it
     int device = -1;
     pipeline::EditRunOptions options;
 };
@@ -23,6 +25,9 @@ struct EditArguments {
 void run_edit(const EditArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     Scene scene = load_scene(args.scene);
+    if (!args.body.empty())
+        for (SceneObject* o : {&scene.a, &scene.b})
+            if (!o->bvh.empty()) o->body = parse_body_kind(args.body, "--body");
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);
@@ -39,14 +44,8 @@ void run_edit(const EditArguments& args) {
                              args.options.frames ? ", frames/NNNN.ply" : "");
 }
 
-// The shipped data: AMHV_DATA_DIR in the environment, else the source tree's data/.
-std::filesystem::path data_dir() {
-    if (const char* env = std::getenv("AMHV_DATA_DIR")) return env;
-    return AMHV_DATA_DIR;
-}
-
 void run_demo(EditArguments args) {
-    args.scene = (data_dir() / "scenes" / "demo.toml").string();
+    args.scene = (shipped_data_dir() / "scenes" / "demo.toml").string();
     if (!std::filesystem::is_regular_file(args.scene))
         throw Error(fmt::format("{}: the demo scene is missing (set AMHV_DATA_DIR to the folder holding scenes/ and cmu/)", args.scene));
     std::cout << fmt::format("demo: {} (CMU 18_01 / 19_01: B's capture moved 4 m, turned 120 degrees, its take shifted by 20 frames)\n",
@@ -91,6 +90,7 @@ void add_edit_command(CLI::App& app) {
     demo->add_flag("!--no-frames", demo_args->options.frames, "Skip frames/NNNN.ply");
     demo->add_flag("!--no-glb", demo_args->options.glb, "Skip scene.glb");
     demo->add_flag("!--no-timings", demo_args->options.timings, "Leave timings out of result.json");
+    demo->add_option("--body", demo_args->body, "capsules (default) or skinned: the CC0 Mesh2Motion human fitted to each take");
     demo->callback([demo_args] { run_demo(*demo_args); });
 }
 

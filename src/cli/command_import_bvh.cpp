@@ -27,6 +27,7 @@ void run_import(const ImportArguments& args) {
     if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
     if (!args.up.empty()) options.units.up = parse_up_axis(args.up, "--up");
     const BvhMotion motion = load_bvh(args.bvh, bvh_load_options(args.bvh_options));
+    apply_body_option(args.bvh_options, motion, options);
     const FrameRange range = bvh_frames(motion, args.frames);
     StagedOutput out(args.out, {args.bvh});
     pipeline::import_bvh_into(motion, args.bvh, range, options, out.dir());

@@ -26,7 +26,7 @@ struct MhvArguments {
     double voxel = 0.01;
     int resample = 0;
     int device = -1;
-    bool exr = true, exr_multipart = false, vdb = false, timings = true;
+    bool exr = true, exr_multipart = false, vdb = false, timings = true, glb = false;
     BvhArguments bvh_options;
 };
 
@@ -56,6 +56,7 @@ MeshSequence read_segment(const MhvArguments& args, std::string& source) {
     if (!args.unit.empty()) options.units.metres_per_unit = parse_unit(args.unit, "--unit");
     if (!args.up.empty()) options.units.up = parse_up_axis(args.up, "--up");
     BvhMotion motion = load_bvh(args.bvh, bvh_load_options(args.bvh_options));
+    apply_body_option(args.bvh_options, motion, options);
     source = args.bvh;
     return skeleton_body_sequence(motion, bvh_frames(motion, args.frames), options);
 }
@@ -78,7 +79,7 @@ void run_mhv(const MhvArguments& args) {
     std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
     if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
     StagedOutput out(args.out, inputs);
-    const pipeline::MhvFiles files{args.exr, args.exr_multipart, args.vdb, args.timings, args.axis[0]};
+    const pipeline::MhvFiles files{args.exr, args.exr_multipart, args.vdb, args.timings, args.axis[0], args.glb};
     const pipeline::MhvReport report = pipeline::write_mhv(plan, backend.voxeliser(), args.backend, backend.device(), files, out.dir(), timings);
     out.commit();
     const VoxelGrid& grid = plan.grid;
@@ -88,7 +89,7 @@ void run_mhv(const MhvArguments& args) {
                              summary.gap_voxels, summary.root.x(), summary.root.y(), summary.root.z());
     std::cout << fmt::format("  voxelised on {} in {:.2f} s; wrote {}/ (mhv.json, mhv.amhv{}{})\n", backend.device(), report.voxelise_seconds,
                              out.target().string(), args.exr ? fmt::format(", {} EXR slices in slices/", report.slices) : "",
-                             args.vdb ? ", mhv.vdb" : "");
+                             fmt::format("{}{}", args.vdb ? ", mhv.vdb" : "", args.glb ? ", mhv.glb" : ""));
 }
 
 }  // namespace
@@ -112,6 +113,7 @@ void add_mhv_command(CLI::App& app) {
     command->add_flag("--exr-multipart", args->exr_multipart, "All slices as parts of one multi-part EXR file");
     command->add_flag("!--no-exr", args->exr, "Skip the EXR slices");
     command->add_flag("--vdb", args->vdb, "Also write mhv.vdb (OpenVDB: density, t_start, t_end)");
+    command->add_flag("--glb", args->glb, "Also write mhv.glb: the occupied voxels' surface coloured by t_end (glTF, for any 3D viewer)");
     command->add_flag("!--no-timings", args->timings, "Leave timings out of mhv.json (byte-identical reruns)");
     command->callback([args] { run_mhv(*args); });
 }

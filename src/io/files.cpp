@@ -1,5 +1,7 @@
 #include "src/io/files.hpp"
 
+#include <cstdlib>
+
 #include "src/core/error.hpp"
 
 namespace amhv {
@@ -14,6 +16,11 @@ void write_file(const std::filesystem::path& path, std::string_view bytes) {
 void finish_file(std::ofstream& out, const std::filesystem::path& path) {
     if (out) out.close();
     if (!out) fail(path.string(), "could not be written in full (is the disk full?)");
+}
+
+std::filesystem::path shipped_data_dir() {
+    if (const char* env = std::getenv("AMHV_DATA_DIR")) return env;
+    return AMHV_DATA_DIR;
 }
 
 std::string read_file_bytes(const std::filesystem::path& path) {

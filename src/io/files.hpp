@@ -15,6 +15,9 @@ void write_file(const std::filesystem::path& path, std::string_view bytes);
 // The whole file; throws amhv::Error naming `path` when it cannot be read.
 std::string read_file_bytes(const std::filesystem::path& path);
 
+// The shipped data (scenes/, cmu/, bodies/): AMHV_DATA_DIR in the environment, else the source tree's data/.
+std::filesystem::path shipped_data_dir();
+
 // Closes `out` and throws amhv::Error naming `path` if any write to it or the close failed.
 void finish_file(std::ofstream& out, const std::filesystem::path& path);
 

@@ -14,6 +14,7 @@
 #include "src/io/exr_slices.hpp"
 #include "src/io/files.hpp"
 #include "src/io/vdb_file.hpp"
+#include "src/results/mhv_glb.hpp"
 
 namespace amhv::pipeline {
 
@@ -58,6 +59,7 @@ nlohmann::ordered_json mhv_json(const MhvPlan& plan, const Amhv& volume, const M
                                               : nlohmann::json(nullptr)},
                      {"exr_slice_count", report.slices},
                      {"vdb", files.vdb ? nlohmann::json("mhv.vdb") : nlohmann::json(nullptr)}};
+    if (files.glb) json["files"]["glb"] = "mhv.glb";
     return json;
 }
 
@@ -98,6 +100,7 @@ MhvReport write_mhv(const MhvPlan& plan, Voxeliser& voxeliser, const std::string
     write_amhv(volume, out / "mhv.amhv");
     if (files.exr) report.slices = write_exr_slices(volume, out / "slices", {.axis = files.axis, .multipart = files.exr_multipart});
     if (files.vdb) write_vdb(volume, out / "mhv.vdb");
+    if (files.glb) write_mhv_glb(volume, out / "mhv.glb");
     timings["write"] = seconds_since(t0);
     nlohmann::ordered_json json = mhv_json(plan, volume, report, voxelised, backend, device, files);
     if (files.timings) json["timings_s"] = timings;

@@ -29,6 +29,7 @@ MhvPlan plan_mhv(const MeshSequence& sequence, const std::string& source, double
 struct MhvFiles {
     bool exr = true, exr_multipart = false, vdb = false, timings = true;
     char axis = 'z';
+    bool glb = false;  // mhv.glb: the occupied voxels' surface coloured by t_end
 };
 
 struct MhvReport {

@@ -10,6 +10,7 @@
 #include "src/core/clock.hpp"
 #include "host/reference/sweep_reference.hpp"
 #include "src/core/error.hpp"
+#include "src/results/appearance_files.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
 #include "src/results/group_vdb.hpp"
@@ -194,6 +195,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     results::EditFiles files;
     files.frames = options.frames;
     files.mesh_files = options.frames ? write_scene_frames(out / "frames", edit, a, b) : 0;
+    files.obj_files = options.frames ? write_obj_frames(out / "frames", edit, a, b) : 0;
     if (options.glb) {
         const SceneGlbReport glb = write_scene_glb(out / "scene.glb", edit, a, b, scene.a.fps);
         files.glb = true;

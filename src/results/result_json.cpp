@@ -247,6 +247,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"bvh", files.bvh},
                       {"paths", {"paths.svg", "paths.png"}},
                       {"views", views_json(files.view_frames)}};
+    if (files.obj_files > 0) json["output"]["obj_files"] = files.obj_files;
 }
 
 SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {

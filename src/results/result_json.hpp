@@ -39,6 +39,7 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
 struct EditFiles {
     bool frames = false;
     int mesh_files = 0;
+    int obj_files = 0;  // frames/A_NNNN.obj, B_NNNN.obj: OBJ input with its appearance
     bool glb = false;  // scene.glb
     std::vector<std::string> bvh;  // A.bvh, B.bvh: the edited takes
     std::uint64_t glb_bytes = 0;

@@ -3,11 +3,17 @@
 #include <array>
 #include <cstring>
 #include <limits>
+#include <map>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <tiny_gltf.h>
 
 #include "src/core/error.hpp"
+#include "src/results/glb_builder.hpp"
+#include "src/io/files.hpp"
+#include "src/io/obj_appearance.hpp"
+#include "src/results/appearance_files.hpp"
 #include "src/results/edit_files.hpp"
 
 namespace amhv {
@@ -16,93 +22,6 @@ namespace {
 
 // The performers' colours, as in the PLY frames and the pictures (A orange, B blue), linear.
 constexpr std::array<std::array<double, 4>, 2> kBaseColour{{{0.79, 0.19, 0.02, 1.0}, {0.02, 0.19, 0.79, 1.0}}};
-
-// Builds the model's one buffer, its views and accessors as data is added.
-class GlbBuilder {
-public:
-    explicit GlbBuilder(tinygltf::Model& model) : model_(model) { model_.buffers.resize(1); }
-
-    // A bufferView over `bytes` (4-byte aligned in the buffer); `target` 0 for none.
-    int view(const void* bytes, std::size_t size, int target) {
-        auto& data = model_.buffers[0].data;
-        while (data.size() % 4) data.push_back(0);
-        tinygltf::BufferView v;
-        v.buffer = 0;
-        v.byteOffset = data.size();
-        v.byteLength = size;
-        v.target = target;
-        const auto* from = static_cast<const unsigned char*>(bytes);
-        data.insert(data.end(), from, from + size);
-        model_.bufferViews.push_back(v);
-        return int(model_.bufferViews.size()) - 1;
-    }
-
-    int accessor(int view, int component, int type, std::size_t count, std::vector<double> min = {}, std::vector<double> max = {}) {
-        tinygltf::Accessor a;
-        a.bufferView = view;
-        a.componentType = component;
-        a.type = type;
-        a.count = count;
-        a.minValues = std::move(min);
-        a.maxValues = std::move(max);
-        model_.accessors.push_back(a);
-        return int(model_.accessors.size()) - 1;
-    }
-
-    // y-up positions with their bounds, and area-weighted vertex normals.
-    std::array<int, 2> vertices(const TriangleMesh& mesh) {
-        std::vector<float> positions(mesh.vertices.size() * 3), normals(mesh.vertices.size() * 3, 0.0f);
-        std::vector<double> lo(3, std::numeric_limits<double>::infinity()), hi(3, -std::numeric_limits<double>::infinity());
-        std::vector<Vec3> sum(mesh.vertices.size(), Vec3::Zero());
-        for (const auto& t : mesh.triangles) {
-            const Vec3 n = (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
-            for (int c = 0; c < 3; ++c) sum[t[std::size_t(c)]] += n;
-        }
-        for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-            const Vec3& p = mesh.vertices[v];
-            const float yup[3] = {float(p.x()), float(p.z()), float(-p.y())};
-            const Vec3 n = sum[v].norm() > 0 ? Vec3(sum[v].normalized()) : Vec3::UnitZ();
-            const float nyup[3] = {float(n.x()), float(n.z()), float(-n.y())};
-            for (int c = 0; c < 3; ++c) {
-                positions[v * 3 + std::size_t(c)] = yup[c];
-                normals[v * 3 + std::size_t(c)] = nyup[c];
-                lo[std::size_t(c)] = std::min(lo[std::size_t(c)], double(yup[c]));
-                hi[std::size_t(c)] = std::max(hi[std::size_t(c)], double(yup[c]));
-            }
-        }
-        const std::size_t bytes = positions.size() * sizeof(float);
-        const int p = accessor(view(positions.data(), bytes, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3,
-                               mesh.vertices.size(), lo, hi);
-        const int n = accessor(view(normals.data(), bytes, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3,
-                               mesh.vertices.size());
-        return {p, n};
-    }
-
-    // The triangles as 16-bit indices where they fit, else 32-bit.
-    int indices(const TriangleMesh& mesh) {
-        const std::size_t count = mesh.triangles.size() * 3;
-        if (mesh.vertices.size() <= 65535) {
-            std::vector<std::uint16_t> small(count);
-            for (std::size_t i = 0; i < count; ++i) small[i] = std::uint16_t(mesh.triangles[i / 3][i % 3]);
-            return accessor(view(small.data(), count * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
-                            TINYGLTF_TYPE_SCALAR, count);
-        }
-        return accessor(view(mesh.triangles.data(), count * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
-                        TINYGLTF_TYPE_SCALAR, count);
-    }
-
-    // A float accessor for animation data (times or scales).
-    int floats(const std::vector<float>& values, int type, bool bounds) {
-        const int components = type == TINYGLTF_TYPE_VEC3 ? 3 : 1;
-        std::vector<double> lo, hi;
-        if (bounds) lo = {double(values.front())}, hi = {double(values.back())};
-        return accessor(view(values.data(), values.size() * sizeof(float), 0), TINYGLTF_COMPONENT_TYPE_FLOAT, type,
-                        values.size() / std::size_t(components), lo, hi);
-    }
-
-private:
-    tinygltf::Model& model_;
-};
 
 void add_materials(tinygltf::Model& model) {
     for (int o = 0; o < 2; ++o) {
@@ -113,6 +32,103 @@ void add_materials(tinygltf::Model& model) {
         m.pbrMetallicRoughness.roughnessFactor = 0.8;
         model.materials.push_back(m);
     }
+}
+
+// glTF's y-up axes: the scene's (x, y, z) as (x, z, -y).
+void push_yup(std::vector<float>& out, const Vec3& v) { out.insert(out.end(), {float(v.x()), float(v.z()), float(-v.y())}); }
+
+// The materials and images of OBJ input, each written once: a material per distinct (performer,
+// name, colour, texture), an image per texture file (embedded, PNG or JPEG as glTF requires).
+class AppearanceMaterials {
+public:
+    AppearanceMaterials(tinygltf::Model& model, GlbBuilder& glb) : model_(model), glb_(glb) {}
+
+    int material(int object, const ObjAppearance& obj, const std::string& name) {
+        const auto at = obj.materials.find(name);
+        if (at == obj.materials.end()) return object;  // no material: the performer's colour
+        const ObjMaterial& m = at->second;
+        const auto key = std::make_tuple(object, name, m.colour, m.texture.string());
+        if (auto known = materials_.find(key); known != materials_.end()) return known->second;
+        tinygltf::Material out;
+        out.name = fmt::format("{} {}", "AB"[object], name);
+        out.pbrMetallicRoughness.baseColorFactor = {m.colour.begin(), m.colour.end()};
+        out.pbrMetallicRoughness.metallicFactor = 0.0;
+        out.pbrMetallicRoughness.roughnessFactor = 0.8;
+        if (m.colour[3] < 1.0) out.alphaMode = "BLEND";
+        if (!m.texture.empty()) out.pbrMetallicRoughness.baseColorTexture.index = texture(m.texture);
+        model_.materials.push_back(out);
+        return materials_[key] = int(model_.materials.size()) - 1;
+    }
+
+private:
+    int texture(const std::filesystem::path& file) {
+        if (auto known = textures_.find(file); known != textures_.end()) return known->second;
+        const std::string bytes = read_file_bytes(file);
+        tinygltf::Image image;
+        image.name = file.filename().string();
+        if (bytes.rfind("\x89PNG", 0) == 0) image.mimeType = "image/png";
+        else if (bytes.rfind("\xFF\xD8\xFF", 0) == 0) image.mimeType = "image/jpeg";
+        else fail(file.string(), "scene.glb embeds PNG and JPEG textures only (glTF 2.0); convert it, or pass --no-glb");
+        image.bufferView = glb_.view(bytes.data(), bytes.size(), 0);
+        model_.images.push_back(image);
+        tinygltf::Texture t;
+        t.source = int(model_.images.size()) - 1;
+        model_.textures.push_back(t);
+        return textures_[file] = int(model_.textures.size()) - 1;
+    }
+
+    tinygltf::Model& model_;
+    GlbBuilder& glb_;
+    std::map<std::tuple<int, std::string, std::array<double, 4>, std::string>, int> materials_;
+    std::map<std::filesystem::path, int> textures_;
+};
+
+// The scene position of a source frame's file coordinates at output frame k.
+Vec3 placed_point(const ObjectFrameEdit& e, const UnitsAndAxes& units, const Vec3& p) {
+    const Vec3 s = to_scene_point(p, units);
+    const Eigen::Vector2d xy = Eigen::Rotation2Dd(e.yaw) * Eigen::Vector2d(s.x(), s.y()) + e.translation;
+    return {xy.x(), xy.y(), s.z() + e.lift};
+}
+
+// One primitive per material of an OBJ frame: corners with the same (v, vt, vn) share a glTF
+// vertex; the file's normals turned with the performer (area-weighted ones where a corner has
+// none); texture coordinates with v flipped (OBJ's origin is bottom left, glTF's top left).
+std::vector<tinygltf::Primitive> textured_primitives(GlbBuilder& glb, AppearanceMaterials& materials, const ObjAppearance& obj, int object,
+                                                     const ObjectFrameEdit& e, const UnitsAndAxes& units) {
+    std::vector<Vec3> placed, area_normal(obj.positions.size(), Vec3::Zero());
+    for (const Vec3& p : obj.positions) placed.push_back(placed_point(e, units, p));
+    for (const auto& [name, triangles] : obj.by_material)
+        for (const auto& t : triangles) {
+            const Vec3 n = (placed[std::size_t(t[1].v)] - placed[std::size_t(t[0].v)]).cross(placed[std::size_t(t[2].v)] - placed[std::size_t(t[0].v)]);
+            for (const ObjCorner& c : t) area_normal[std::size_t(c.v)] += n;
+        }
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(e.yaw, Vec3::UnitZ()).toRotationMatrix();
+    const bool flip = units.map().reflects();
+    std::vector<tinygltf::Primitive> out;
+    for (const auto& [name, triangles] : obj.by_material) {
+        std::map<std::tuple<int, int, int>, std::uint32_t> vertex_of;
+        std::vector<float> positions, normals, uvs;
+        std::vector<std::uint32_t> indices;
+        for (const auto& t : triangles)
+            for (const ObjCorner& c : {t[0], t[flip ? 2 : 1], t[flip ? 1 : 2]}) {  // a reflected file's triangles turn round
+                auto [at, added] = vertex_of.emplace(std::make_tuple(c.v, c.vt, c.vn), std::uint32_t(vertex_of.size()));
+                indices.push_back(at->second);
+                if (!added) continue;
+                push_yup(positions, placed[std::size_t(c.v)]);
+                Vec3 n = c.vn >= 0 ? Vec3(turn * to_scene_direction(obj.normals[std::size_t(c.vn)], units)) : area_normal[std::size_t(c.v)];
+                push_yup(normals, n.norm() > 0 ? Vec3(n.normalized()) : Vec3::UnitZ());
+                const std::array<double, 2> uv = c.vt >= 0 ? obj.texcoords[std::size_t(c.vt)] : std::array<double, 2>{0.0, 0.0};
+                uvs.insert(uvs.end(), {float(uv[0]), float(1.0 - uv[1])});
+            }
+        tinygltf::Primitive p;
+        p.attributes = {{"POSITION", glb.attribute(positions, 3, true)}, {"NORMAL", glb.attribute(normals, 3, false)}};
+        if (!obj.texcoords.empty()) p.attributes["TEXCOORD_0"] = glb.attribute(uvs, 2, false);
+        p.indices = glb.indices32(indices);
+        p.material = materials.material(object, obj, name);
+        p.mode = TINYGLTF_MODE_TRIANGLES;
+        out.push_back(p);
+    }
+    return out;
 }
 
 // Frame k's nodes are shown from t_k to t_(k+1): scale 0, then 1 at t_k, then 0 at t_(k+1), held
@@ -150,27 +166,36 @@ SceneGlbReport write_scene_glb(const std::filesystem::path& path, const EditResu
     ObjectSource* sources[2] = {&a, &b};
     std::array<std::vector<std::array<std::uint32_t, 3>>, 2> last_triangles;
     std::array<int, 2> last_indices{-1, -1};
+    const std::array<bool, 2> textured{has_obj_appearance(a), has_obj_appearance(b)};
+    AppearanceMaterials materials(model, glb);
     const int frames = edit.timeline.length();
     for (int k = 0; k < frames; ++k) {
         const int sampler = frame_sampler(glb, play, k, frames, fps);
         for (int o = 0; o < 2; ++o) {
-            const TriangleMesh mesh = placed_mesh(edit, k, o, *sources[o]);
-            if (mesh.triangles.empty()) continue;
-            if (last_indices[std::size_t(o)] < 0 || mesh.triangles != last_triangles[std::size_t(o)]) {
-                last_indices[std::size_t(o)] = glb.indices(mesh);
-                last_triangles[std::size_t(o)] = mesh.triangles;
-                ++report.index_accessors;
-            }
-            const auto [positions, normals] = glb.vertices(mesh);
-            tinygltf::Primitive primitive;
-            primitive.attributes = {{"POSITION", positions}, {"NORMAL", normals}};
-            primitive.indices = last_indices[std::size_t(o)];
-            primitive.material = o;
-            primitive.mode = TINYGLTF_MODE_TRIANGLES;
             const int source = edit.frames[std::size_t(o)][std::size_t(k)].source;
             tinygltf::Mesh m;
             m.name = fmt::format("{} frame {:04d} src {:04d}", "AB"[o], k, source);
-            m.primitives.push_back(primitive);
+            if (textured[std::size_t(o)]) {
+                const ObjAppearance obj = read_obj_appearance(source_frame_file(*sources[o], source));
+                m.primitives = textured_primitives(glb, materials, obj, o, edit.frames[std::size_t(o)][std::size_t(k)], sources[o]->spec().units);
+                report.index_accessors += int(m.primitives.size());
+                if (m.primitives.empty()) continue;
+            } else {
+                const TriangleMesh mesh = placed_mesh(edit, k, o, *sources[o]);
+                if (mesh.triangles.empty()) continue;
+                if (last_indices[std::size_t(o)] < 0 || mesh.triangles != last_triangles[std::size_t(o)]) {
+                    last_indices[std::size_t(o)] = glb.indices(mesh);
+                    last_triangles[std::size_t(o)] = mesh.triangles;
+                    ++report.index_accessors;
+                }
+                const auto [positions, normals] = glb.vertices(mesh);
+                tinygltf::Primitive primitive;
+                primitive.attributes = {{"POSITION", positions}, {"NORMAL", normals}};
+                primitive.indices = last_indices[std::size_t(o)];
+                primitive.material = o;
+                primitive.mode = TINYGLTF_MODE_TRIANGLES;
+                m.primitives.push_back(primitive);
+            }
             model.meshes.push_back(m);
             tinygltf::Node node;
             node.name = m.name;

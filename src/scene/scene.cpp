@@ -194,6 +194,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     if (bvh) {
         if (!fs::is_regular_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
         if (auto tpose = t.string("tpose")) o.tpose = parse_tpose(*tpose, t.where("tpose", t.get("tpose")));
+        if (auto body = t.string("body")) o.body = parse_body_kind(*body, t.where("body", t.get("body")));
         const std::optional<double> fps = t.number("fps", 1, 1000, false);
         const BvhMotion motion = load_bvh(o.bvh, BvhLoadOptions{o.tpose, fps.value_or(0)});
         o.tpose = motion.first_frame > 0 ? TPose::Skip : TPose::Keep;  // what auto found
@@ -213,6 +214,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     }
     if (!bvh) {
         if (t.has("tpose")) t.error("tpose", t.get("tpose"), "only a BVH object has a T-pose frame");
+        if (t.has("body")) t.error("body", t.get("body"), "only a BVH object gets a body built for it (a mesh sequence is its own body)");
         if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
     }
     // The frames the edit covers (default: all there are); key segments must lie inside.
@@ -494,6 +496,7 @@ std::string resolved_toml(const Scene& scene) {
         else if (o->floor_m) t.insert("floor", *o->floor_m);
         t.insert("fps", o->fps);
         if (!o->bvh.empty()) t.insert("tpose", std::string(to_string(o->tpose)));
+        if (o->body == BodyKind::Skinned) t.insert("body", to_string(o->body));  // absent for capsules: older scenes hash as before
         t.insert("frames", toml::array{o->frame_first, o->frame_last});
         if (!o->labels.empty()) t.insert("labels", o->labels);
         if (!o->track.empty()) t.insert("track", o->track);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "src/body/skinned_body.hpp"
 #include "src/core/geometry.hpp"
 #include "src/io/bvh.hpp"
 #include "src/io/mesh_sequence.hpp"
@@ -32,6 +33,7 @@ struct SceneObject {
     std::string name;                  // "A" or "B"
     std::string meshes;                // folder or printf pattern (resolved path), or
     std::string bvh;                   // a BVH file: a body built from the bones
+    BodyKind body = BodyKind::Capsules;  // BVH: capsules around the bones, or the skinned human
     UnitsAndAxes units;                // unit, up / axes, and (floor) the lift that puts the floor at z = 0
     // floor: a height in the scene's axes (units.lift = -floor), or "auto" (floor_auto: a low
     // percentile of the frames' lowest points, found when the object's frames are read).

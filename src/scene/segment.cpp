@@ -161,6 +161,8 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
     if (!spec_.bvh.empty()) {
         motion_ = load_bvh(spec_.bvh, BvhLoadOptions{spec_.tpose, spec_.fps});
         body_options_.units = spec_.units;
+        // The fit depends on the axes and unit only (a lift moves the rest and every frame alike).
+        if (spec_.body == BodyKind::Skinned) body_options_.skinned = fit_skin_model(load_skin_model(shipped_body_model()), *motion_, spec_.units);
     }
     if (spec_.floor_auto) {
         spec_.units.lift = -find_floor();
