@@ -17,6 +17,7 @@
 #include <spdlog/spdlog.h>
 
 #include "src/core/error.hpp"
+#include "src/io/obj_appearance.hpp"
 
 namespace amhv {
 
@@ -368,6 +369,9 @@ void precheck_mesh_file(const fs::path& path) {
         }
     } else if (ext == ".obj") {
         precheck_obj(in, source);
+        // Its appearance (texture coordinates, normals, materials) goes to the output: checked line
+        // by line here, so that a missing material library is named rather than failing OpenMesh.
+        read_obj_appearance(path);
     } else if (ext == ".off") {
         precheck_off(in, source, size);
     }

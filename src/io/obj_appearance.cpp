@@ -1,5 +1,6 @@
 #include "src/io/obj_appearance.hpp"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -91,6 +92,12 @@ bool names_a_file(const std::string& keyword) {
 }
 
 }  // namespace
+
+bool is_obj_file(const fs::path& file) {
+    std::string ext = file.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".obj";
+}
 
 std::map<std::string, ObjMaterial> read_mtl(const fs::path& file) {
     const std::vector<std::string> lines = lines_of(read_file_bytes(file));

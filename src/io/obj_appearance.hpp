@@ -37,6 +37,9 @@ struct ObjAppearance {
     bool has_appearance() const { return !texcoords.empty() || !normals.empty() || !mtllibs.empty(); }
 };
 
+// True for a file named *.obj (any case).
+bool is_obj_file(const std::filesystem::path& file);
+
 // Reads an OBJ's geometry and appearance, and the materials of its mtllib files. Fails naming
 // the file and line on a malformed number, an index out of range, or a missing material library.
 ObjAppearance read_obj_appearance(const std::filesystem::path& file);

@@ -21,9 +21,7 @@ fs::path source_frame_file(const ObjectSource& source, int number) {
 bool has_obj_appearance(const ObjectSource& source) {
     if (source.spec().meshes.empty()) return false;
     const fs::path first = source_frame_file(source, source.spec().frame_first);
-    std::string ext = first.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return ext == ".obj" && read_obj_appearance(first).has_appearance();
+    return is_obj_file(first) && read_obj_appearance(first).has_appearance();
 }
 
 FileSpaceMove file_space_move(const EditResult& edit, int k, int object, const ObjectSource& source) {

@@ -182,7 +182,8 @@ const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
     if (motion_) {
         parts = skeleton_body_parts(*motion_, number, body_options_);
     } else {
-        TriangleMesh mesh = read_mesh(frame_file(spec_.meshes, number), spec_.units);
+        const fs::path file = frame_file(spec_.meshes, number);
+        TriangleMesh mesh = read_mesh(file, spec_.units);
         if (!spec_.labels.empty()) {
             parts = split_by_labels(mesh, read_labels(frame_file(spec_.labels, number), mesh.vertices.size()));
             for (const auto& p : parts)
