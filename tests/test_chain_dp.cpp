@@ -2,11 +2,16 @@
 // against exhaustive enumeration, the lower envelope against brute force, and the w_A -> infinity limit.
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
+#include <optional>
+#include <set>
+#include <tuple>
 #include <random>
 
 #include <gtest/gtest.h>
 
+#include "host/choose/chain_alternatives.hpp"
 #include "host/choose/chain_dp.hpp"
 
 namespace amhv {
@@ -80,6 +85,97 @@ TEST(ChainDp, MatchesExhaustiveEnumeration) {
         ChainChoice check = dp;
         evaluate_chain(chain, w, check);
         EXPECT_NEAR(check.cost, dp.cost, 1e-12 * (1 + dp.cost));
+    }
+}
+
+// Choosing again without failing combinations (host/choose/chain_alternatives.hpp): on random
+// chains where random pairs of consecutive key poses (and single end poses) "leave a transition
+// stuck", ruling out each stuck choice's cells and asking again reaches exactly the cheapest
+// choice that is neither stuck nor in a ruled-out combination of cells (exhaustive enumeration;
+// with radius 0 a cell is one pose), giving no choice twice and the choices in increasing cost.
+using ChainState = std::pair<int, int>;  // (solution, A rotation)
+
+TEST(ChainDp, AlternativesSkipRuledOutCombinationsExactly) {
+    std::mt19937 random(20261126);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int round = 0; round < 200; ++round) {
+        const int keys = 1 + round % 4;
+        auto chain = random_chain(random, keys, 5);
+        ChainWeights w;
+        w.voxel = 0.05;
+        w.mu = 0.3 * u(random);
+        w.yaw_a = u(random) - 0.5;
+        if (round % 2) w.a_rotations_rad = {-0.2, 0.0};
+        for (auto& s : chain)  // pairs of solutions a voxel or two apart at one angle, so that cells hold several
+            if (s.solutions.size() > 1 && round % 3 == 0) s.solutions[1] = {s.solutions[0].i + 1, s.solutions[0].j, s.solutions[0].theta_rad};
+        const double radius = round % 2 ? 0.0 : 0.12;
+        const double stuck_share = 0.2 + 0.6 * u(random);
+        std::map<std::tuple<std::size_t, ChainState, ChainState>, bool> stuck;  // transition t (0: before key 0) and its end states
+        auto is_stuck = [&](std::size_t t, ChainState before, ChainState after) {
+            auto [at, added] = stuck.emplace(std::make_tuple(t, before, after), false);
+            if (added) at->second = u(random) < stuck_share;
+            return at->second;
+        };
+        auto first_stuck = [&](const ChainChoice& c) -> std::optional<std::vector<std::size_t>> {
+            auto state = [&](std::size_t i) { return ChainState{c.solution[i], c.rotation[i]}; };
+            for (std::size_t t = 0; t <= std::size_t(keys); ++t) {
+                const ChainState none{-1, -1};
+                if (!is_stuck(t, t > 0 ? state(t - 1) : none, t < std::size_t(keys) ? state(t) : none)) continue;
+                std::vector<std::size_t> around;
+                if (t > 0) around.push_back(t - 1);
+                if (t < std::size_t(keys)) around.push_back(t);
+                return around;
+            }
+            return std::nullopt;
+        };
+        std::vector<std::vector<std::pair<std::size_t, ChainCell>>> ruled_out;  // combinations of cells
+        auto in_ruled_out = [&](const ChainChoice& c) {
+            for (const auto& combination : ruled_out) {
+                bool all = true;
+                for (const auto& [i, cell] : combination) all = all && cell.holds(chain[i].solutions[std::size_t(c.solution[i])], c.rotation[i], w.voxel);
+                if (all) return true;
+            }
+            return false;
+        };
+        ChainAlternatives alternatives(chain, w);
+        std::set<std::pair<std::vector<int>, std::vector<int>>> given;
+        double last_cost = -1;
+        std::optional<ChainChoice> found;
+        while (auto choice = alternatives.next()) {
+            EXPECT_TRUE(given.insert({choice->solution, choice->rotation}).second) << "round " << round;
+            EXPECT_FALSE(in_ruled_out(*choice)) << "round " << round;
+            EXPECT_GE(choice->cost, last_cost - 1e-12);
+            last_cost = choice->cost;
+            auto around = first_stuck(*choice);
+            if (!around) {
+                found = choice;
+                break;
+            }
+            std::vector<std::pair<std::size_t, ChainCell>> combination;
+            for (std::size_t i : *around) combination.push_back({i, {chain[i].solutions[std::size_t(choice->solution[i])], choice->rotation[i], radius}});
+            ruled_out.push_back(combination);
+            alternatives.rule_out(*around, radius);
+        }
+        std::optional<double> best;  // every choice, exhaustively
+        ChainChoice c;
+        c.solution.assign(std::size_t(keys), 0);
+        c.rotation.assign(std::size_t(keys), 0);
+        while (true) {
+            evaluate_chain(chain, w, c);
+            if (!first_stuck(c) && !in_ruled_out(c) && (!best || c.cost < *best)) best = c.cost;
+            std::size_t i = 0;
+            for (; i < std::size_t(keys); ++i) {
+                if (++c.rotation[i] < int(w.a_rotations_rad.size())) break;
+                c.rotation[i] = 0;
+                if (++c.solution[i] < int(chain[i].solutions.size())) break;
+                c.solution[i] = 0;
+            }
+            if (i == std::size_t(keys)) break;
+        }
+        ASSERT_EQ(found.has_value(), best.has_value()) << "round " << round;
+        if (best) {
+            EXPECT_NEAR(found->cost, *best, 1e-9 * (1 + *best)) << "round " << round;
+        }
     }
 }
 

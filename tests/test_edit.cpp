@@ -1,12 +1,15 @@
 // `amhv edit` end to end (docs/method.md sections 7, 8 and 10) on two small separately captured
 // performers: the timeline, the chosen pose reproduced by the per-frame transforms, the meshes,
 // reuse of a sweep, both backends, byte-identical reruns, and the empty-group rules.
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <fstream>
 #include <numbers>
+#include <random>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -16,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "src/body/shapes.hpp"
+#include "src/edit/edit.hpp"
 #include "src/edit/timeline.hpp"
 #include "host/reference/voxelise_reference.hpp"
 #include "src/scene/scene.hpp"
@@ -542,6 +546,148 @@ TEST(Edit, TexturedObjFramesKeepTheirAppearance) {
         }
     EXPECT_FLOAT_EQ(t[0], float(((first_corner - 1) % 17) / 16.0));
     EXPECT_FLOAT_EQ(t[1], float(1.0 - ((first_corner - 1) % 13) / 12.0));
+}
+
+}  // namespace
+}  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// Adds a labelled part to a frame of the fixture (its OBJ and its labels file).
+void add_part(const fs::path& obj, const fs::path& labels, const std::string& name, const TriangleMesh& part) {
+    std::size_t vertices = 0;
+    std::istringstream in(read_text(obj));
+    for (std::string line; std::getline(in, line);) vertices += line.rfind("v ", 0) == 0;
+    std::ofstream out(obj, std::ios::app), names(labels, std::ios::app);
+    out.precision(9);
+    for (const Vec3& v : part.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
+    for (const auto& t : part.triangles) out << "f " << t[0] + 1 + vertices << ' ' << t[1] + 1 + vertices << ' ' << t[2] + 1 + vertices << '\n';
+    for (std::size_t v = 0; v < part.vertices.size(); ++v) names << name << '\n';
+}
+
+// The handshake, after which B steps back holding a pole (8 m, 2 cm thick, at knee height) out in
+// front of it: facing A, as the editor's intent prefers, the pole runs through A for the whole
+// transition, and 12 rounds of pushing the two apart cannot free it. The DP chooses again without
+// that key pose (and its cell: the same angles, within 15 cm) until B stands turned enough that
+// the pole passes A: every transitional frame free, checked from transforms.json alone; both
+// backends give the same files. With limits that keep only poses facing A (one cell), no choice is
+// left: the edit names the transition and its frames.
+struct PoleFixture {
+    FixtureWalks walks;
+    std::unique_ptr<EditFixture> fixture;
+    explicit PoleFixture(const std::string& extra = "") {
+        walks.a = [](int f) { return Eigen::Vector2d(walk(f, 15, 24), 0); };
+        walks.b = [](int f) { return Eigen::Vector2d(0, f <= 29 ? walk(f, 20, 29) : 0.4 - 0.02 * (f - 29)); };
+        fixture = std::make_unique<EditFixture>("0&0a", "prefer = { distance_m = 0.6, thetaA_deg = 0.0, thetaB_deg = 0.0 }\n" + extra, 0, walks);
+        const fs::path root = fixture->dir.path();
+        for (int f = 30; f < 45; ++f) {
+            const Eigen::Vector2d at = walks.b(f);
+            const TriangleMesh pole = shapes::capsule({at.x(), at.y() + 0.25, 0.5}, {at.x(), at.y() + 8, 0.5}, 0.02, 2, 8);
+            add_part(root / "b" / fmt::format("{:04d}.obj", f), root / "b_labels" / fmt::format("{:04d}.txt", f), "pole", pole);
+        }
+    }
+};
+
+TEST(Edit, AKeyPoseNoTransitionCanLeaveIsChosenAgain) {
+    PoleFixture pole;
+    const fs::path root = pole.fixture->dir.path();
+    const std::string scene = pole.fixture->quoted();
+    auto kept = test::run_amhv(fmt::format("edit {} --allow-transition-overlap --no-frames --no-glb --no-timings --out '{}'", scene, (root / "kept").string()));
+    ASSERT_EQ(kept.exit_code, 0) << kept.output;
+    const auto paper = read_json(root / "kept/result.json");
+    EXPECT_EQ(paper.at("dp").at("choices_tried").get<int>(), 1);
+    EXPECT_EQ(paper.at("transitions")[1].at("frames_overlapping").get<int>(), 15);  // the pole through A at every frame
+
+    for (const char* backend : {"vulkan", "cpu"}) {
+        auto run = test::run_amhv(fmt::format("edit {} --backend {} --no-frames --no-glb --no-timings --out '{}'", scene, backend, (root / backend).string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+    }
+    EXPECT_EQ(read_text(root / "cpu/frames.csv"), read_text(root / "vulkan/frames.csv"));
+    EXPECT_EQ(read_text(root / "cpu/transforms.json"), read_text(root / "vulkan/transforms.json"));
+    const auto result = read_json(root / "vulkan/result.json");
+    EXPECT_GT(result.at("dp").at("choices_tried").get<int>(), 1);
+    EXPECT_LE(result.at("dp").at("choices_tried").get<int>(), kMaxKeyChoices);
+    EXPECT_GT(result.at("dp").at("cost").get<double>(), paper.at("dp").at("cost").get<double>());
+    const double turned = std::abs(result.at("segments")[0].at("chosen").at("thetaB_deg").get<double>());
+    EXPECT_GT(turned, 20.0);  // B no longer faces A
+    for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
+
+    const Scene loaded = load_scene(pole.fixture->scene);
+    ObjectSource a(loaded.a), b(loaded.b);
+    ReferenceVoxeliser voxeliser;
+    auto whole = [](const std::string&) { return true; };
+    const auto transforms = read_json(root / "vulkan/transforms.json");
+    for (const auto& frame : transforms.at("output")) {
+        if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
+        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
+            << "output frame " << frame.at("frame").get<int>();
+    }
+}
+
+TEST(Edit, ATransitionNoChoiceCanFreeIsNamed) {
+    PoleFixture facing("limits = { thetaA_deg = [-5.0, 5.0], thetaB_deg = [-5.0, 5.0] }");
+    const fs::path out = facing.fixture->dir.path() / "out";
+    auto run = test::run_amhv(fmt::format("edit {} --no-frames --no-glb --out '{}'", facing.fixture->quoted(), out.string()));
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_EQ(test::one_line_error(run), 1) << run.output;
+    EXPECT_NE(run.output.find("transition 1 (output frames 25-39) keeps the performers inside each other at frames 25-39"), std::string::npos)
+        << run.output;
+    EXPECT_NE(run.output.find("no other choice of the key poses around it is left (1 tried)"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+// Random scenes where the chosen key pose sends B's walk after the handshake across A (a random
+// heading and speed, A walking on or standing): the edit frees every transitional frame (checked
+// from transforms.json alone, re-voxelised by the CPU reference) or names the transition it cannot
+// free; Vulkan and the CPU reference check every frame alike (frames.csv and transforms.json).
+TEST(Edit, RandomCrossingsAreFreedOrNamedAlikeOnBothBackends) {
+    std::mt19937 random(34);
+    std::uniform_real_distribution<double> u(0, 1);
+    int crossed = 0;  // scenes whose paper paths put one performer inside the other
+    for (int scene_number = 0; scene_number < 4; ++scene_number) {
+        // B faces A at the handshake (the intent) and walks on within 40 degrees of straight ahead:
+        // towards A and past it.
+        const double heading = (90 + 80 * (u(random) - 0.5)) * std::numbers::pi / 180, speed = 0.02 + 0.03 * u(random);
+        const bool a_walks_on = scene_number % 2 == 0;
+        FixtureWalks walks;
+        walks.a = [a_walks_on](int f) { return Eigen::Vector2d(a_walks_on ? walk(f, 15, 24) : walk(std::min(f, 24), 15, 24), 0); };
+        walks.b = [heading, speed](int f) {
+            const Eigen::Vector2d stop(0, walk(29, 20, 29));
+            return f <= 29 ? Eigen::Vector2d(0, walk(f, 20, 29)) : Eigen::Vector2d(stop + speed * (f - 29) * Eigen::Vector2d(std::cos(heading), std::sin(heading)));
+        };
+        EditFixture fixture("0&0a", "prefer = { distance_m = 0.6, thetaA_deg = 0.0, thetaB_deg = 0.0 }", 0, walks);
+        const fs::path root = fixture.dir.path();
+        std::array<test::CommandResult, 2> runs;
+        for (int b = 0; b < 2; ++b)
+            runs[std::size_t(b)] = test::run_amhv(fmt::format("edit {} --backend {} --no-frames --no-glb --no-timings --out '{}'", fixture.quoted(),
+                                                              b ? "cpu" : "vulkan", (root / (b ? "cpu" : "vulkan")).string()));
+        SCOPED_TRACE(fmt::format("scene {}: heading {:.0f} deg, {:.3f} m a frame", scene_number, heading * 180 / std::numbers::pi, speed));
+        ASSERT_EQ(runs[0].exit_code, runs[1].exit_code) << runs[0].output << runs[1].output;
+        if (runs[0].exit_code != 0) {
+            EXPECT_EQ(test::one_line_error(runs[0]), 1) << runs[0].output;
+            EXPECT_NE(runs[0].output.find("(output frames"), std::string::npos) << runs[0].output;
+            continue;
+        }
+        EXPECT_EQ(read_text(root / "cpu/frames.csv"), read_text(root / "vulkan/frames.csv"));
+        EXPECT_EQ(read_text(root / "cpu/transforms.json"), read_text(root / "vulkan/transforms.json"));
+        const auto result = read_json(root / "vulkan/result.json");
+        for (const auto& t : result.at("transitions")) {
+            EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
+            crossed += t.at("before_separation").at("frames_overlapping").get<int>() > 0;
+        }
+        const Scene loaded = load_scene(fixture.scene);
+        ObjectSource a(loaded.a), b(loaded.b);
+        ReferenceVoxeliser voxeliser;
+        auto whole = [](const std::string&) { return true; };
+        const auto transforms = read_json(root / "vulkan/transforms.json");
+        for (const auto& frame : transforms.at("output")) {
+            if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
+            EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
+                << "output frame " << frame.at("frame").get<int>();
+        }
+    }
+    EXPECT_GE(crossed, 2);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "host/choose/chain_alternatives.hpp"
 
 namespace amhv {
 
@@ -111,7 +112,7 @@ void evaluate_chain(const std::vector<ChainSegment>& segments, const ChainWeight
     choice.cost = choice.unary + choice.pairwise;
 }
 
-ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w) {
+ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w, const ChainRestrictions* restrictions) {
     check(segments, w);
     const int rotations = int(w.a_rotations_rad.size());
     const double c = pair_factor(w);
@@ -125,7 +126,8 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
         cost[i].assign(std::size_t(rotations), std::vector<double>(std::size_t(n), kInf));
         back[i].assign(std::size_t(rotations), std::vector<std::pair<int, int>>(std::size_t(n), {-1, -1}));
         for (int d = 0; d < rotations; ++d) {
-            for (int j = 0; j < n; ++j) cost[i][std::size_t(d)][std::size_t(j)] = unary(seg, w, j, d);
+            for (int j = 0; j < n; ++j)
+                cost[i][std::size_t(d)][std::size_t(j)] = !restrictions || restrictions->allows(i, seg.solutions[std::size_t(j)], d, w.voxel) ? unary(seg, w, j, d) : kInf;
             if (i == 0) continue;
             const auto& prev = segments[i - 1];
             const Eigen::Vector2d a = displacement_term(prev, seg, w);
@@ -203,7 +205,7 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
                 }
             }
             for (int j = 0; j < n; ++j) {
-                cost[i][std::size_t(d)][std::size_t(j)] += best[std::size_t(j)];
+                cost[i][std::size_t(d)][std::size_t(j)] += best[std::size_t(j)];  // inf stays inf: a state no allowed path reaches
                 back[i][std::size_t(d)][std::size_t(j)] = arg[std::size_t(j)];
             }
         }
@@ -216,6 +218,10 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
     for (int d = 0; d < rotations; ++d)
         for (int j = 0; j < int(segments[last].solutions.size()); ++j)
             if (cost[last][std::size_t(d)][std::size_t(j)] < best) best = cost[last][std::size_t(d)][std::size_t(j)], best_j = j, best_d = d;
+    if (best_j < 0) {  // the restrictions allow no choice
+        choice.cost = kInf;
+        return choice;
+    }
     choice.solution.assign(segments.size(), -1);
     choice.rotation.assign(segments.size(), -1);
     for (std::size_t i = last + 1; i-- > 0;) {

@@ -45,8 +45,11 @@ struct ChainChoice {
     double cost = 0, unary = 0, pairwise = 0;
 };
 
-// Exact minimiser by dynamic programming (distance transform for equal-rotation transitions).
-ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& weights);
+struct ChainRestrictions;
+// Exact minimiser by dynamic programming (distance transform for equal-rotation transitions); with
+// `restrictions`, among the states they allow (host/choose/chain_alternatives.hpp): a choice of
+// infinite cost and no states when they allow none.
+ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& weights, const ChainRestrictions* restrictions = nullptr);
 // Every combination; for tests on small chains.
 ChainChoice solve_chain_exhaustively(const std::vector<ChainSegment>& segments, const ChainWeights& weights);
 // The objective of one choice (fills cost, unary, pairwise).

@@ -13,6 +13,7 @@
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
 #include "src/edit/frame_check.hpp"
+#include "host/choose/chain_alternatives.hpp"
 #include "host/paths/path_opt.hpp"
 #include "src/sweep/pose_map.hpp"
 
@@ -357,19 +358,27 @@ TransitionCheck separate_transition(const SeparationContext& c, int s, const Edi
     }
     tally(t.overlapping, t.max_overlap);
     t.smoothness = smoothness();
-    if (t.overlapping > 0 && !options.allow_transition_overlap) {
-        std::vector<int> bad;
-        for (const FrameCheck& f : checks)
-            if (f.overlap > 0) bad.push_back(f.frame);
-        throw Error(fmt::format("{}: transition {} (output frames {}) keeps the performers inside each other at frames {} ({} voxels at most) "
-                                "after {} rounds of separation; change the key segments around it, or pass --allow-transition-overlap",
-                                c.scene.file.string(), s / 2, frame_ranges(frames), frame_ranges(bad), t.max_overlap, t.rounds));
-    }
     return t;
 }
 
-// Every output frame checked (frame_checks); every transitional segment separated where it overlaps.
-void check_and_separate(const SeparationContext& c, const EditOptions& options, EditResult& r) {
+// A transition separation could not free, for the error that names it.
+struct StuckTransition {
+    int timeline_segment = -1;
+    std::string message;
+};
+
+std::string stuck_message(const Scene& scene, const TransitionCheck& t, const std::vector<FrameCheck>& checks, const TimelineSegment& seg) {
+    std::vector<int> bad;
+    for (const FrameCheck& f : checks)
+        if (f.overlap > 0) bad.push_back(f.frame);
+    return fmt::format("{}: transition {} (output frames {}) keeps the performers inside each other at frames {} ({} voxels at most) after {} rounds "
+                       "of separation",
+                       scene.file.string(), t.timeline_segment / 2, frame_ranges(segment_frames(seg)), frame_ranges(bad), t.max_overlap, t.rounds);
+}
+
+// Every output frame checked (frame_checks); every transitional segment separated where it
+// overlaps. Stops at the first transition that stays overlapping (unless overlap is allowed).
+std::optional<StuckTransition> check_and_separate(const SeparationContext& c, const EditOptions& options, EditResult& r) {
     std::vector<FrameCheck> all;
     for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {
         const TimelineSegment& seg = r.timeline.segments[s];
@@ -377,6 +386,8 @@ void check_and_separate(const SeparationContext& c, const EditOptions& options, 
         std::vector<FrameCheck> checks;
         if (seg.key == 0) {
             r.transition_checks.push_back(separate_transition(c, int(s), options, r, checks));
+            if (r.transition_checks.back().overlapping > 0 && !options.allow_transition_overlap)
+                return StuckTransition{int(s), stuck_message(c.scene, r.transition_checks.back(), checks, seg)};
         } else {
             checks = check_frames(r, segment_frames(seg), *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
         }
@@ -384,6 +395,52 @@ void check_and_separate(const SeparationContext& c, const EditOptions& options, 
     }
     std::sort(all.begin(), all.end(), [](const FrameCheck& x, const FrameCheck& y) { return x.frame < y.frame; });
     r.frame_checks = std::move(all);
+    return std::nullopt;
+}
+
+// The key segments (chain indices) at the two ends of timeline segment `s`: one before the first
+// key segment or after the last, else two.
+std::vector<std::size_t> keys_around(const Scene& scene, const Timeline& timeline, int s) {
+    std::vector<std::size_t> keys;
+    for (int n : {s - 1, s + 1}) {
+        if (n < 0 || n >= int(timeline.segments.size()) || timeline.segments[std::size_t(n)].key == 0) continue;
+        for (std::size_t i = 0; i < scene.segments.size(); ++i)
+            if (scene.segments[i].index == timeline.segments[std::size_t(n)].key) keys.push_back(i);
+    }
+    return keys;
+}
+
+PathWeights path_weights(const Scene& scene) {
+    PathWeights pw;
+    pw.delta = scene.weights.delta;
+    pw.lambda = scene.weights.lambda;
+    pw.alpha = scene.weights.alpha;
+    pw.v_c = scene.weights.v_c;
+    pw.r_c = scene.weights.r_c;
+    return pw;
+}
+
+// Places the key segments by `choice`, solves every transitional path and checks every frame,
+// separating where transitions overlap (docs/method.md sections 7, 8 and 8a).
+std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vector<KeySweep>& sweeps, const std::vector<ChainSegment>& chain,
+                                              const std::vector<bool>& captured, const std::vector<int>& captured_k, const ChainWeights& weights,
+                                              const SeparationContext& c, const EditOptions& options, EditResult& r) {
+    r.keys.clear();
+    r.paths.clear();
+    r.transition_checks.clear();
+    r.frame_checks.clear();
+    auto t0 = std::chrono::steady_clock::now();
+    place_key_segments(scene, sweeps, chain, captured, captured_k, weights, r);
+    for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {  // transitional segments, each object on its own
+        const TimelineSegment seg = r.timeline.segments[s];
+        if (seg.key != 0 || seg.length == 0) continue;
+        for (int o = 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, c.weights, r));
+    }
+    r.path_seconds += seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    std::optional<StuckTransition> stuck = check_and_separate(c, options, r);
+    r.check_seconds += seconds_since(t0);
+    return stuck;
 }
 
 }  // namespace
@@ -400,36 +457,38 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     frame_roots_and_facings(scene, sources, voxeliser, r);
     r.roots_seconds = seconds_since(t0);
 
-    // One solution per key segment (docs/method.md section 7).
+    // One solution per key segment (docs/method.md section 7); again without the key poses around a
+    // transition that cannot be freed (section 8a), up to kMaxKeyChoices choices.
     t0 = std::chrono::steady_clock::now();
     const ChainWeights weights = chain_weights(scene);
     std::vector<bool> captured;
     std::vector<int> captured_k;
     const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, captured, captured_k);
-    r.choice = solve_chain(chain, weights);
+    ChainAlternatives alternatives(chain, weights);
     r.dp_seconds = seconds_since(t0);
-
-    t0 = std::chrono::steady_clock::now();
-    place_key_segments(scene, sweeps, chain, captured, captured_k, weights, r);
-    // Transitional segments, each object on its own.
-    PathWeights pw;
-    pw.delta = scene.weights.delta;
-    pw.lambda = scene.weights.lambda;
-    pw.alpha = scene.weights.alpha;
-    pw.v_c = scene.weights.v_c;
-    pw.r_c = scene.weights.r_c;
-    for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {
-        const TimelineSegment seg = r.timeline.segments[s];
-        if (seg.key != 0 || seg.length == 0) continue;
-        for (int o = 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, pw, r));
-    }
-    r.path_seconds = seconds_since(t0);
-
-    t0 = std::chrono::steady_clock::now();
     r.voxel = scene.sampling.voxel;
-    check_and_separate(SeparationContext{scene, {&a, &b}, voxeliser, pw}, options, r);
-    r.check_seconds = seconds_since(t0);
-    return r;
+    const SeparationContext context{scene, {&a, &b}, voxeliser, path_weights(scene)};
+    std::string first_stuck;
+    for (r.choices_tried = 1;; ++r.choices_tried) {
+        t0 = std::chrono::steady_clock::now();
+        std::optional<ChainChoice> choice = alternatives.next();
+        r.dp_seconds += seconds_since(t0);
+        if (!choice)
+            throw Error(fmt::format("{}, and no other choice of the key poses around it is left ({} tried); change the key segments around it, "
+                                    "or pass --allow-transition-overlap",
+                                    first_stuck, r.choices_tried - 1));
+        r.choice = std::move(*choice);
+        const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
+        if (!stuck) return r;
+        if (first_stuck.empty()) first_stuck = stuck->message;
+        if (r.choices_tried == kMaxKeyChoices)
+            throw Error(fmt::format("{}, and so did the next {} choices of the key poses without the ones around it; change the key segments "
+                                    "around it, or pass --allow-transition-overlap",
+                                    first_stuck, kMaxKeyChoices - 1));
+        t0 = std::chrono::steady_clock::now();
+        alternatives.rule_out(keys_around(scene, r.timeline, stuck->timeline_segment), kRuleOutRadius);
+        r.dp_seconds += seconds_since(t0);
+    }
 }
 
 }  // namespace amhv

@@ -100,8 +100,16 @@ struct EditResult {
     std::vector<FrameCheck> frame_checks;        // every output frame, in order
     std::vector<TransitionCheck> transition_checks;
     double voxel = 0.01;  // the edge the frames were checked at
+    // Choices of the key poses tried (docs/method.md section 8a): 1 unless a transition could not
+    // be freed and the DP chose again without the key poses around it.
+    int choices_tried = 1;
     double roots_seconds = 0, dp_seconds = 0, path_seconds = 0, check_seconds = 0;
 };
+
+// The most choices of the key poses an edit tries before it names the transition it cannot free,
+// and how far around a failing key pose (same rotations) the next choices stay away from it.
+inline constexpr int kMaxKeyChoices = 6;
+inline constexpr double kRuleOutRadius = 0.15;
 
 // Object `object`'s (0 = A, 1 = B) mesh at output frame k, moved into the scene (the frame's
 // rigid transform and lift).

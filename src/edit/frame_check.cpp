@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 #include <nanoflann.hpp>
@@ -96,22 +97,30 @@ struct Pending {
 // What one pass over a batch's volume finds, per bit (a body at a frame) and per frame.
 struct BatchScan {
     std::vector<std::vector<std::array<double, 3>>> boundary;  // per bit: voxels with an empty 6-neighbour
+    std::vector<std::uint64_t> overlap;                       // per frame: voxels inside both bodies
     std::vector<double> low, high;                            // per frame: the overlap's extent along `apart`
+    explicit BatchScan(std::size_t n)
+        : boundary(2 * n), overlap(n, 0), low(n, std::numeric_limits<double>::infinity()), high(n, -std::numeric_limits<double>::infinity()) {}
+    // Adds the scan of the next slab (boundaries stay in the grid's z, y, x order).
+    void append(const BatchScan& next) {
+        for (std::size_t b = 0; b < boundary.size(); ++b) boundary[b].insert(boundary[b].end(), next.boundary[b].begin(), next.boundary[b].end());
+        for (std::size_t f = 0; f < overlap.size(); ++f) {
+            overlap[f] += next.overlap[f];
+            low[f] = std::min(low[f], next.low[f]), high[f] = std::max(high[f], next.high[f]);
+        }
+    }
 };
 
-// One pass: each voxel's boundary bits (its word less the AND of its six neighbours' words; outside
-// the grid is empty) and its overlap bits (A's bit f with B's bit n + f), for every frame at once.
-BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>& batch) {
+// Layers z0..z1-1: each voxel's boundary bits (its word less the AND of its six neighbours' words;
+// outside the grid is empty) and its overlap bits (A's bit f with B's bit n + f), every frame at once.
+BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, int z0, int z1) {
     const VoxelGrid& g = both.grid();
-    BatchScan scan;
-    scan.boundary.resize(2 * n);
-    scan.low.assign(n, std::numeric_limits<double>::infinity());
-    scan.high.assign(n, -std::numeric_limits<double>::infinity());
+    BatchScan scan(n);
     auto word = [&](int x, int y, int z) {
         return x >= 0 && y >= 0 && z >= 0 && x < g.dims[0] && y < g.dims[1] && z < g.dims[2] ? both.word(0, g.index(x, y, z)) : 0u;
     };
     const std::uint32_t low_bits = n >= 32 ? ~0u : (1u << n) - 1;
-    for (int z = 0; z < g.dims[2]; ++z)
+    for (int z = z0; z < z1; ++z)
         for (int y = 0; y < g.dims[1]; ++y)
             for (int x = 0; x < g.dims[0]; ++x) {
                 const std::uint32_t w = both.word(0, g.index(x, y, z));
@@ -120,13 +129,25 @@ BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>
                 for (; edge; edge &= edge - 1) scan.boundary[std::size_t(std::countr_zero(edge))].push_back({double(x), double(y), double(z)});
                 for (std::uint32_t overlap = w & (w >> n) & low_bits; overlap; overlap &= overlap - 1) {
                     const std::size_t f = std::size_t(std::countr_zero(overlap));
-                    FrameCheck& check = *batch[f].check;
-                    ++check.overlap;
+                    ++scan.overlap[f];
                     const Vec3 c = g.centre(x, y, z);
-                    const double along = check.apart.dot(Eigen::Vector2d(c.x(), c.y()));
+                    const double along = batch[f].check->apart.dot(Eigen::Vector2d(c.x(), c.y()));
                     scan.low[f] = std::min(scan.low[f], along), scan.high[f] = std::max(scan.high[f], along);
                 }
             }
+    return scan;
+}
+
+// The whole volume in slabs of layers on every core, joined in z order: the same as one pass.
+BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>& batch) {
+    const int layers = both.grid().dims[2];
+    const int slabs = std::min(layers, 16), per = (layers + slabs - 1) / slabs;
+    std::vector<std::optional<BatchScan>> parts(static_cast<std::size_t>(slabs));
+    parallel_for(std::size_t(slabs), [&](std::size_t s) { parts[s] = scan_slab(both, n, batch, int(s) * per, std::min(layers, int(s + 1) * per)); });
+    BatchScan scan(n);
+    for (const auto& part : parts)
+        if (part) scan.append(*part);
+    for (std::size_t f = 0; f < n; ++f) batch[f].check->overlap = scan.overlap[f];
     return scan;
 }
 

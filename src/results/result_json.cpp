@@ -226,7 +226,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                      {"yaw_a_deg", angles::degrees(k.yaw_a)},
                      {"yaw_b_deg", angles::degrees(k.yaw_b)}};
     }
-    json["dp"] = {{"cost", edit.choice.cost}, {"unary", edit.choice.unary}, {"pairwise", edit.choice.pairwise}};
+    json["dp"] = {{"cost", edit.choice.cost}, {"unary", edit.choice.unary}, {"pairwise", edit.choice.pairwise}, {"choices_tried", edit.choices_tried}};
     Json paths = Json::array();
     for (const PathReport& p : edit.paths)
         paths.push_back({{"segment", fmt::format("transition {}", p.timeline_segment / 2)},
