@@ -12,6 +12,8 @@
 #include <random>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <cairo.h>
 #include <gtest/gtest.h>
@@ -688,6 +690,85 @@ TEST(Edit, RandomCrossingsAreFreedOrNamedAlikeOnBothBackends) {
         }
     }
     EXPECT_GE(crossed, 2);
+}
+
+}  // namespace
+}  // namespace amhv
+
+namespace amhv {
+namespace {
+
+// Headless Chromium on a page, as a person's browser opens it (software WebGL, no network).
+test::CommandResult chromium(const std::string& arguments, const fs::path& profile) {
+    return test::run_shell(fmt::format(
+        "timeout 300 chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
+        "--disable-component-update --disable-sync --enable-unsafe-swiftshader --use-angle=swiftshader --enable-logging=stderr --v=0 "
+        "--window-size=1200,800 --virtual-time-budget=10000 --user-data-dir='{}' {}",
+        profile.string(), arguments));
+}
+
+// The page (index.html, view/): its data are the folder's own outputs; headless Chromium opens it
+// from file://, loads the scene with no script error, steps to a key-segment frame (#frame=N) and
+// draws both performers; `amhv view --serve` serves the same files on 127.0.0.1; `amhv view`
+// refuses a folder amhv did not write and an output without scene.glb.
+TEST(Edit, ThePagePlaysTheSceneAndPlotsTheGroupInABrowser) {
+    EditFixture fixture;
+    const fs::path root = fixture.dir.path(), out = root / "edit";
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --no-frames --no-timings --out '" + out.string() + "'");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const auto result = read_json(out / "result.json");
+    EXPECT_EQ(result.at("output").at("scene_fps").get<double>(), 25.0);
+    std::string data = read_text(out / "view/data.js");
+    ASSERT_EQ(data.rfind("window.AMHV_DATA = ", 0), 0u);
+    const auto page = nlohmann::json::parse(data.substr(19, data.size() - 21));
+    EXPECT_EQ(page.at("result"), result);  // the page's data are result.json's, as written
+    const auto& group = page.at("groups").at(0);
+    EXPECT_EQ(group.at("members").get<int>(), result.at("segments").at(0).at("solutions").get<int>());
+    EXPECT_EQ(group.at("rows").size(), group.at("members").get<std::size_t>());  // small: every member
+    EXPECT_EQ(page.at("roots").size(), 40u);
+    for (const char* file : {"three.min.js", "GLTFLoader.js", "OrbitControls.js", "view.js", "scene.js"}) EXPECT_TRUE(fs::exists(out / "view" / file)) << file;
+
+    const std::string url = fmt::format("'file://{}/index.html#frame=20'", out.string());
+    auto dom = chromium("--dump-dom " + url, root / "profile1");
+    EXPECT_NE(dom.output.find("<div id=\"status\">ready: frame 20 of 40, key 1</div>"), std::string::npos) << dom.output.substr(0, 3000);
+    EXPECT_EQ(dom.output.find("Uncaught"), std::string::npos) << dom.output.substr(0, 3000);
+    EXPECT_NE(dom.output.find("Key segment 1 (0&amp;0a)"), std::string::npos);
+    auto shot = chromium(fmt::format("--screenshot='{}' {}", (root / "page.png").string(), url), root / "profile2");
+    cairo_surface_t* png = cairo_image_surface_create_from_png((root / "page.png").c_str());
+    ASSERT_EQ(cairo_surface_status(png), CAIRO_STATUS_SUCCESS) << shot.output.substr(0, 2000);
+    int orange = 0, blue = 0;
+    for (int y = 0; y < cairo_image_surface_get_height(png); ++y) {
+        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(png) + y * cairo_image_surface_get_stride(png));
+        for (int x = 0; x < cairo_image_surface_get_width(png) * 6 / 10; ++x) {  // the player's side
+            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
+            orange += r > b + 80;
+            blue += b > r + 80;
+        }
+    }
+    cairo_surface_destroy(png);
+    EXPECT_GT(orange, 500);
+    EXPECT_GT(blue, 500);
+
+    // --serve: the same bytes over HTTP, on this machine only.
+    const int port = 20000 + int(::getpid() % 20000);
+    auto served = test::run_shell(fmt::format(
+        "{} view '{}' --serve {} > '{}/serve.log' 2>&1 & pid=$!; "
+        "python3 -c \"import sys,time,urllib.request\nfor i in range(100):\n    try:\n        sys.stdout.buffer.write(urllib.request.urlopen('http://127.0.0.1:{}/view/data.js').read()); break\n    except Exception: time.sleep(0.1)\"; "
+        "kill $pid",
+        test::amhv_command(), out.string(), port, root.string(), port));
+    EXPECT_EQ(served.output, read_text(out / "view/data.js"));
+
+    fs::create_directories(root / "mine");
+    auto refused = test::run_amhv(fmt::format("view '{}'", (root / "mine").string()));
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_NE(refused.output.find("is not an output folder of amhv"), std::string::npos) << refused.output;
+    EXPECT_FALSE(fs::exists(root / "mine/index.html"));
+    auto bare = test::run_amhv("edit " + fixture.quoted() + " --no-glb --no-frames --out '" + (root / "bare").string() + "'");
+    ASSERT_EQ(bare.exit_code, 0) << bare.output;
+    EXPECT_FALSE(fs::exists(root / "bare/index.html"));
+    auto no_scene = test::run_amhv(fmt::format("view '{}'", (root / "bare").string()));
+    EXPECT_EQ(no_scene.exit_code, 1);
+    EXPECT_NE(no_scene.output.find("scene.glb"), std::string::npos) << no_scene.output;
 }
 
 }  // namespace

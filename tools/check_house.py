@@ -41,7 +41,7 @@ def check_layers(root):
         own = layer_of(rel)
         for number, line in enumerate(p.read_text().splitlines(), 1):
             m = re.match(r'\s*#include "([^"]+)"', line)
-            if not m or m.group(1).startswith("shaders/"):
+            if not m or m.group(1).startswith(("shaders/", "embedded/")):  # generated in the build folder
                 continue
             target = m.group(1)
             if not (root / target).exists():

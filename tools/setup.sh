@@ -13,24 +13,29 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev
   python3 python3-openvdb universal-ctags time
   libtinygltf-dev libnanoflann-dev
+  chromium
 )
 # Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
 # nodejs bundles npm and conflicts with Debian's npm package).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 
-# The Khronos glTF validator exists only on the npm registry: installed into tools/npm/ (ignored by
-# git), pinned, for the tests that validate every scene.glb.
-gltf_validator="gltf-validator@2.0.0-dev.3.10"
+# From the npm registry, into tools/npm/ (ignored by git), pinned: the Khronos glTF validator, for
+# the tests that validate every scene.glb, and three.js, which `amhv edit` copies beside the page it
+# writes (r147: the last with classic scripts, which a page opened from file:// may load).
+npm_tools=("gltf-validator@2.0.0-dev.3.10" "three@0.147.0")
 install_npm_tools() {
-  local prefix
+  local prefix tool name
   prefix="$(cd "$(dirname "$0")" && pwd)/npm"
-  if [ -f "$prefix/node_modules/gltf-validator/package.json" ]; then
-    echo "setup: $gltf_validator already in tools/npm"
-    return
-  fi
-  echo "setup: installing $gltf_validator into tools/npm from the npm registry"
-  npm install --no-audit --no-fund --loglevel=error --prefix "$prefix" "$gltf_validator" >/dev/null
+  for tool in "${npm_tools[@]}"; do
+    name="${tool%@*}"
+    if [ -f "$prefix/node_modules/$name/package.json" ] && grep -q "\"version\": \"${tool##*@}\"" "$prefix/node_modules/$name/package.json"; then
+      echo "setup: $tool already in tools/npm"
+      continue
+    fi
+    echo "setup: installing $tool into tools/npm from the npm registry"
+    npm install --no-audit --no-fund --loglevel=error --prefix "$prefix" "$tool" >/dev/null
+  done
 }
 
 missing=()

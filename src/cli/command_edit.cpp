@@ -39,9 +39,9 @@ void run_edit(const EditArguments& args) {
     for (const KeyEdit& k : edit.keys)
         std::cout << fmt::format("key segment {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
                                  k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y, k.chosen.theta_deg, k.chosen.distance);
-    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}{}, paths.svg, paths.png, views/key_N.png, result.json)\n",
+    std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}{}{}, paths.svg, paths.png, views/key_N.png, result.json)\n",
                              out.target().string(), edit.timeline.length(), args.options.glb ? ", scene.glb" : "",
-                             args.options.frames ? ", frames/NNNN.ply" : "");
+                             args.options.glb && args.options.page ? ", index.html" : "", args.options.frames ? ", frames/NNNN.ply" : "");
 }
 
 void run_demo(EditArguments args) {
@@ -54,6 +54,7 @@ void run_demo(EditArguments args) {
     const std::string out = args.out;
     std::cout << fmt::format(
         "look at:\n"
+        "  {0}/index.html         the scene playing, and the handshake's solution group: open it in a web browser\n"
         "  {0}/views/key_1.png    the middle of the handshake from the side, as the edit places the two performers\n"
         "  {0}/paths.png          root paths from above: dashed = captured, solid = edited, thick = the handshake\n"
         "  {0}/scene.glb          the whole edited scene, animated: Blender (File > Import > glTF 2.0) or any glTF viewer\n"
@@ -76,7 +77,8 @@ void add_edit_command(CLI::App& app) {
     edit->add_flag("--allow-transition-overlap", args->options.allow_transition_overlap,
                    "Keep the paper's transitional paths where the performers would pass through each other (still checked and reported)");
     edit->add_flag("!--no-frames", args->options.frames, "Skip frames/NNNN.ply");
-    edit->add_flag("!--no-glb", args->options.glb, "Skip scene.glb");
+    edit->add_flag("!--no-glb", args->options.glb, "Skip scene.glb (and the page, which plays it)");
+    edit->add_flag("!--no-page", args->options.page, "Skip index.html and view/, the page that plays the scene and plots the groups");
     edit->add_flag("--maps", args->options.maps, "Also write each key segment's feasibility maps");
     edit->add_flag("--csv", args->options.csv, "Also write each solution group as segment_N/solutions.csv (text: gigabytes at fine sampling)");
     edit->add_flag("!--no-timings", args->options.timings, "Leave timings out of result.json (byte-identical reruns)");
@@ -88,7 +90,8 @@ void add_edit_command(CLI::App& app) {
     demo->add_option("--out", demo_args->out, "Output folder")->capture_default_str();
     add_backend_options(*demo, demo_args->backend, demo_args->device);
     demo->add_flag("!--no-frames", demo_args->options.frames, "Skip frames/NNNN.ply");
-    demo->add_flag("!--no-glb", demo_args->options.glb, "Skip scene.glb");
+    demo->add_flag("!--no-glb", demo_args->options.glb, "Skip scene.glb (and the page, which plays it)");
+    demo->add_flag("!--no-page", demo_args->options.page, "Skip index.html and view/");
     demo->add_flag("!--no-timings", demo_args->options.timings, "Leave timings out of result.json");
     demo->add_option("--body", demo_args->body, "capsules (default) or skinned: the CC0 Mesh2Motion human fitted to each take");
     demo->callback([demo_args] { run_demo(*demo_args); });

@@ -11,6 +11,7 @@ void add_import_bvh_command(CLI::App& app);
 void add_scene_commands(CLI::App& app);  // check, sweep
 void add_edit_command(CLI::App& app);  // edit, demo
 void add_probe_command(CLI::App& app);
+void add_view_command(CLI::App& app);  // view
 
 // Runs the whole program; returns the exit code. Every failure becomes one "amhv: error: ..." line.
 int run(int argc, char** argv);

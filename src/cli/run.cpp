@@ -41,6 +41,7 @@ int run(int argc, char** argv) {
     add_scene_commands(app);
     add_edit_command(app);
     add_probe_command(app);
+    add_view_command(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -17,6 +17,7 @@
 #include "src/results/scene_glb.hpp"
 #include "src/results/solutions_csv.hpp"
 #include "src/pipeline/probe_stage.hpp"
+#include "src/pipeline/view_page.hpp"
 
 namespace amhv::pipeline {
 
@@ -200,6 +201,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
         const SceneGlbReport glb = write_scene_glb(out / "scene.glb", edit, a, b, scene.a.fps);
         files.glb = true;
         files.glb_bytes = glb.bytes;
+        files.glb_fps = scene.a.fps;
     }
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
     files.view_frames = write_key_views(out / "views", edit, a, b);
@@ -213,6 +215,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
         json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
                              {"path", edit.path_seconds}, {"check", edit.check_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
     results::write_json_file(out / "result.json", json);
+    if (options.page && options.glb) write_view_page(out, out);  // reads the files above
     return edit;
 }
 

@@ -52,6 +52,7 @@ struct EditRunOptions {
     std::string from_sweep;  // empty: sweep now
     bool allow_empty = false, frames = true, maps = false, timings = true, csv = false;
     bool glb = true;  // scene.glb
+    bool page = true;  // index.html and view/ (needs scene.glb)
     bool allow_transition_overlap = false;
 };
 

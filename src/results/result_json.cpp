@@ -244,6 +244,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"mesh_files", files.mesh_files},
                       {"scene", files.glb ? nlohmann::json("scene.glb") : nlohmann::json(nullptr)},
                       {"scene_bytes", files.glb_bytes},
+                      {"scene_fps", files.glb ? nlohmann::json(files.glb_fps) : nlohmann::json(nullptr)},
                       {"bvh", files.bvh},
                       {"paths", {"paths.svg", "paths.png"}},
                       {"views", views_json(files.view_frames)}};

@@ -43,6 +43,7 @@ struct EditFiles {
     bool glb = false;  // scene.glb
     std::vector<std::string> bvh;  // A.bvh, B.bvh: the edited takes
     std::uint64_t glb_bytes = 0;
+    double glb_fps = 0;  // the frame rate scene.glb plays at
     std::vector<int> view_frames;  // views/key_N.png: the output frame each shows
 };
 

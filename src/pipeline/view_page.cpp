@@ -1,0 +1,193 @@
+#include "src/pipeline/view_page.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "src/core/error.hpp"
+#include "src/io/files.hpp"
+#include "src/pipeline/solutions_export.hpp"
+#include "embedded/page_files.h"
+
+namespace amhv::pipeline {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+// The three.js files the page loads, from the package folder to view/.
+constexpr std::array<std::pair<const char*, const char*>, 3> kThreeFiles{{
+    {"build/three.min.js", "three.min.js"},
+    {"examples/js/loaders/GLTFLoader.js", "GLTFLoader.js"},
+    {"examples/js/controls/OrbitControls.js", "OrbitControls.js"},
+}};
+
+std::string base64(const std::string& bytes) {
+    static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    out.reserve((bytes.size() + 2) / 3 * 4);
+    for (std::size_t i = 0; i < bytes.size(); i += 3) {
+        const std::uint32_t a = static_cast<unsigned char>(bytes[i]);
+        const std::uint32_t b = i + 1 < bytes.size() ? static_cast<unsigned char>(bytes[i + 1]) : 0u;
+        const std::uint32_t c = i + 2 < bytes.size() ? static_cast<unsigned char>(bytes[i + 2]) : 0u;
+        const std::uint32_t v = a << 16 | b << 8 | c;
+        out += kAlphabet[v >> 18 & 63];
+        out += kAlphabet[v >> 12 & 63];
+        out += i + 1 < bytes.size() ? kAlphabet[v >> 6 & 63] : '=';
+        out += i + 2 < bytes.size() ? kAlphabet[v & 63] : '=';
+    }
+    return out;
+}
+
+Json read_json(const fs::path& file) {
+    try {
+        return Json::parse(read_file_bytes(file));
+    } catch (const Json::exception& e) {
+        fail(file.string(), "is not the JSON amhv wrote ({})", e.what());
+    }
+}
+
+// Every group member up to kPagePlottedMembers, else every n-th by rank: x, y, z, theta, L,
+// thetaA, thetaB.
+Json group_rows(const fs::path& dir, const Json& segment) {
+    const int index = segment.at("index").get<int>();
+    const GroupRead group = read_group(dir, index);
+    const std::uint64_t members = group.group.size();
+    const std::uint64_t stride = std::max<std::uint64_t>(1, (members + kPagePlottedMembers - 1) / kPagePlottedMembers);
+    Json rows = Json::array();
+    std::uint64_t rank = 0;
+    group.group.for_each([&](const PoseIndex& p) {
+        if (rank++ % stride) return;
+        const Solution s = group.describe(p);
+        rows.push_back({s.x, s.y, s.z, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg});
+    });
+    Json out = {{"index", index}, {"members", members}, {"shown", rows.size()}, {"stride", stride}, {"voxel", group.lattice.voxel},
+                {"angle_step_deg", group.lattice.angle_step_deg}, {"rows", std::move(rows)}};
+    const fs::path montage = fs::path(fmt::format("segment_{}", index)) / "feasibility" / "montage.png";
+    if (fs::is_regular_file(dir / montage)) out["montage"] = montage.generic_string();
+    return out;
+}
+
+// view/data.js: result.json as written, transforms.json's segments and roots, the groups' members.
+std::string page_data(const fs::path& dir) {
+    const Json result = read_json(dir / "result.json");
+    const Json transforms = read_json(dir / "transforms.json");
+    if (!result.contains("output") || !result.at("output").contains("scene_fps") || !result.at("output").at("scene_fps").is_number())
+        fail((dir / "result.json").string(), "names no scene.glb with its frame rate (written with --no-glb, or by an amhv before the page): "
+                                             "run `amhv edit` again");
+    Json roots = Json::array();
+    for (const Json& frame : transforms.at("output"))
+        roots.push_back({frame.at("A").at("root")[0], frame.at("A").at("root")[1], frame.at("B").at("root")[0], frame.at("B").at("root")[1]});
+    Json groups = Json::array();
+    for (const Json& segment : result.at("segments")) groups.push_back(group_rows(dir, segment));
+    const Json data = {{"result", result},
+                       {"transforms", {{"frames", transforms.at("frames")}, {"segments", transforms.at("segments")}}},
+                       {"roots", std::move(roots)},
+                       {"groups", std::move(groups)},
+                       {"fps", result.at("output").at("scene_fps")}};
+    return "window.AMHV_DATA = " + data.dump() + ";\n";
+}
+
+}  // namespace
+
+fs::path three_js_dir() {
+    if (const char* env = std::getenv("AMHV_THREE_DIR")) return env;
+    return AMHV_THREE_DIR;
+}
+
+PageReport write_view_page(const fs::path& dir, const fs::path& out) {
+    const fs::path glb = dir / "scene.glb";
+    if (!fs::is_regular_file(glb)) fail(glb.string(), "is missing: the page plays it (run `amhv edit` without --no-glb)");
+    const fs::path three = three_js_dir();
+    for (const auto& [from, to] : kThreeFiles)
+        if (!fs::is_regular_file(three / from))
+            fail((three / from).string(), "is missing: the page needs three.js r147 (tools/setup.sh installs it from npm; or pass --no-page)");
+    const std::string data = page_data(dir);
+    const fs::path view = out / "view";
+    fs::create_directories(view);
+    for (const auto& [from, to] : kThreeFiles) fs::copy_file(three / from, view / to, fs::copy_options::overwrite_existing);
+    write_file(view / "data.js", data);
+    write_file(view / "scene.js", "window.AMHV_GLB = \"" + base64(read_file_bytes(glb)) + "\";\n");
+    write_file(view / "view.js", embedded::k_view_js);
+    write_file(out / "index.html", embedded::k_index_html);
+    PageReport report;
+    report.bytes = fs::file_size(out / "index.html");
+    for (const auto& entry : fs::directory_iterator(view)) report.bytes += entry.file_size();
+    return report;
+}
+
+namespace {
+
+std::string content_type(const fs::path& file) {
+    const std::string ext = file.extension().string();
+    if (ext == ".html") return "text/html; charset=utf-8";
+    if (ext == ".js") return "text/javascript; charset=utf-8";
+    if (ext == ".json") return "application/json";
+    if (ext == ".png") return "image/png";
+    if (ext == ".glb") return "model/gltf-binary";
+    if (ext == ".svg") return "image/svg+xml";
+    return "application/octet-stream";
+}
+
+// One request on `client`: a GET of a file below `dir` (no "..", no escapes), else 404 or 405.
+void answer(int client, const fs::path& dir) {
+    char buffer[4096];
+    const ssize_t got = ::recv(client, buffer, sizeof(buffer) - 1, 0);
+    if (got <= 0) return;
+    const std::string request(buffer, std::size_t(got));
+    const std::size_t space = request.find(' '), end = request.find(' ', space + 1);
+    std::string status = "404 Not Found", body = "not found\n", type = "text/plain";
+    if (request.rfind("GET ", 0) != 0 || space == std::string::npos || end == std::string::npos) {
+        status = "405 Method Not Allowed", body = "GET only\n";
+    } else {
+        std::string path = request.substr(space + 1, end - space - 1);
+        path = path.substr(0, path.find_first_of("?#"));
+        if (path == "/") path = "/index.html";
+        const fs::path file = dir / path.substr(1);
+        if (path.find("..") == std::string::npos && path.find('%') == std::string::npos && fs::is_regular_file(file)) {
+            status = "200 OK", body = read_file_bytes(file), type = content_type(file);
+        }
+    }
+    const std::string head = fmt::format("HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n", status, type, body.size());
+    const std::string reply = head + body;
+    for (std::size_t sent = 0; sent < reply.size();) {
+        const ssize_t n = ::send(client, reply.data() + sent, reply.size() - sent, MSG_NOSIGNAL);
+        if (n <= 0) break;
+        sent += std::size_t(n);
+    }
+}
+
+}  // namespace
+
+void serve_folder(const fs::path& dir, int port) {
+    if (port < 1 || port > 65535) throw Error(fmt::format("--serve: {} is not a port (1..65535)", port));
+    if (!fs::is_regular_file(dir / "index.html")) fail(dir.string(), "has no index.html to serve");
+    const int server = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (server < 0) throw Error("--serve: cannot open a socket");
+    const int yes = 1;
+    ::setsockopt(server, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(std::uint16_t(port));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);  // this machine only
+    if (::bind(server, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0 || ::listen(server, 16) != 0)
+        throw Error(fmt::format("--serve: cannot listen on 127.0.0.1:{} (in use?)", port));
+    std::cout << fmt::format("serving {} at http://127.0.0.1:{}/ (Ctrl-C stops)", dir.string(), port) << std::endl;
+    for (;;) {
+        const int client = ::accept(server, nullptr, nullptr);
+        if (client < 0) continue;
+        answer(client, dir);
+        ::close(client);
+    }
+}
+
+}  // namespace amhv::pipeline
