@@ -733,6 +733,14 @@ TEST(Edit, ThePagePlaysTheSceneAndPlotsTheGroupInABrowser) {
     EXPECT_NE(dom.output.find("<div id=\"status\">ready: frame 20 of 40, key 1</div>"), std::string::npos) << dom.output.substr(0, 3000);
     EXPECT_EQ(dom.output.find("Uncaught"), std::string::npos) << dom.output.substr(0, 3000);
     EXPECT_NE(dom.output.find("Key segment 1 (0&amp;0a)"), std::string::npos);
+    // A pick (as a click does): the lines that choose that member, with its descriptors.
+    const auto& member = group.at("rows").at(3);
+    auto picked = chromium(fmt::format("--dump-dom 'file://{}/index.html#pick=1,3'", out.string()), root / "profile3");
+    EXPECT_NE(picked.output.find(fmt::format("prefer = {{ distance_m = {}, thetaA_deg = {}, thetaB_deg = {} }}",
+                                             std::round(member[4].get<double>() * 1e4) / 1e4, std::round(member[5].get<double>() * 1e4) / 1e4,
+                                             std::round(member[6].get<double>() * 1e4) / 1e4)),
+              std::string::npos)
+        << picked.output.substr(picked.output.find("<pre>"), 800);
     auto shot = chromium(fmt::format("--screenshot='{}' {}", (root / "page.png").string(), url), root / "profile2");
     cairo_surface_t* png = cairo_image_surface_create_from_png((root / "page.png").c_str());
     ASSERT_EQ(cairo_surface_status(png), CAIRO_STATUS_SUCCESS) << shot.output.substr(0, 2000);

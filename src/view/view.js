@@ -2,7 +2,8 @@
 // base64: a file:// page may not fetch files) with three.js, and plots each key segment's solution
 // group from view/data.js (result.json, transforms.json's segments and the groups' members, as the
 // output folder holds them). Clicking a member shows B at that pose over the key segment and the
-// scene lines that make the DP choose it. `#frame=N` in the address opens frame N.
+// scene lines that make the DP choose it. `#frame=N` in the address opens frame N; `#pick=S,R`
+// picks plotted member R of key segment S as a click does.
 (function () {
   'use strict';
   const data = window.AMHV_DATA;
@@ -280,6 +281,7 @@
       const row = nearest(atAngle, xyMap, columns.x, columns.y, px, py);
       if (row) showPose(seg, poseGroup, row, out);
     });
+    section.pick = (row) => { pick.value = row[columns.theta]; atAngle = drawPositions(); showPose(seg, poseGroup, row, out); };
     const back = document.createElement('button');
     back.textContent = 'Back to the chosen pose';
     back.addEventListener('click', () => { poseGroup.group.position.set(0, 0, 0); poseGroup.group.rotation.set(0, 0, 0); out.textContent = ''; dirty = true; });
@@ -327,7 +329,11 @@
       const list = document.getElementById('segments');
       for (const seg of data.result.segments) {
         const group = data.groups.find((g) => g.index === seg.index);
-        if (group && group.rows.length) list.appendChild(segmentSection(seg, group));
+        if (!group || !group.rows.length) continue;
+        const section = segmentSection(seg, group);
+        list.appendChild(section);
+        const picked = /pick=(\d+),(\d+)/.exec(window.location.hash);
+        if (picked && Number(picked[1]) === seg.index && group.rows[Number(picked[2])]) section.pick(group.rows[Number(picked[2])]);
       }
     }, (e) => fail('scene.glb: ' + (e && e.message ? e.message : e)));
     requestAnimationFrame(animate);
