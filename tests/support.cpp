@@ -1,5 +1,8 @@
 #include "support.hpp"
 
+#include "host/reference/voxelise_reference.hpp"
+#include "src/scene/scene.hpp"
+
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <numbers>
@@ -149,5 +152,19 @@ std::size_t shared_voxels(const MeshFrame& a, const MeshFrame& b, double h, Voxe
     return shared;
 }
 
+std::vector<int> overlapping_transitional_frames(const std::filesystem::path& scene_file, const std::filesystem::path& transforms_file, double h) {
+    const Scene scene = load_scene(scene_file);
+    ObjectSource a(scene.a), b(scene.b);
+    ReferenceVoxeliser voxeliser;
+    auto whole = [](const std::string&) { return true; };
+    const auto transforms = nlohmann::json::parse(read_text(transforms_file));
+    std::vector<int> overlapping;
+    for (const auto& frame : transforms.at("output")) {
+        if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
+        if (shared_voxels(moved_parts(a, frame.at("A"), whole), moved_parts(b, frame.at("B"), whole), h, voxeliser) > 0)
+            overlapping.push_back(frame.at("frame").get<int>());
+    }
+    return overlapping;
+}
 
 }  // namespace amhv::test

@@ -66,5 +66,8 @@ MeshFrame moved_parts(ObjectSource& source, const nlohmann::json& transform, boo
 // Voxels (edge h, on the scene lattice) whose centre lies inside `a` and, within `reach` voxels
 // (26-neighbourhood steps), inside `b`.
 std::size_t shared_voxels(const MeshFrame& a, const MeshFrame& b, double h, Voxeliser& voxeliser, int reach = 0);
+// The transitional output frames of an edit's transforms.json where both whole bodies of `scene`
+// share a voxel of edge h: re-voxelised from the file alone by the CPU reference.
+std::vector<int> overlapping_transitional_frames(const std::filesystem::path& scene, const std::filesystem::path& transforms, double h);
 
 }  // namespace amhv::test

@@ -104,6 +104,20 @@ Eigen::Vector2d apply(const nlohmann::json& t, const Eigen::Vector2d& p) {
     return Eigen::Rotation2Dd(yaw) * p + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
 }
 
+// Pixels of a picture's left `share` that are shaded orange (red over blue by `margin`) and blue.
+std::pair<int, int> orange_and_blue(cairo_surface_t* picture, double share, int margin) {
+    int orange = 0, blue = 0;
+    for (int y = 0; y < cairo_image_surface_get_height(picture); ++y) {
+        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(picture) + y * cairo_image_surface_get_stride(picture));
+        for (int x = 0; x < int(cairo_image_surface_get_width(picture) * share); ++x) {
+            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
+            orange += r > b + margin;
+            blue += b > r + margin;
+        }
+    }
+    return {orange, blue};
+}
+
 // B's first vertex in an edited frame's PLY (A's vertices come first; the header says how many).
 Vec3 first_vertex_of_b(const fs::path& ply_file) {
     const std::string ply = read_text(ply_file);
@@ -215,16 +229,7 @@ TEST(Edit, ATransitionThroughThePartnerIsSeparated) {
     const auto result = read_json(root / "separated/result.json");
     for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
     EXPECT_GT(result.at("transitions")[1].at("separation_rounds").get<int>(), 0);
-    const Scene loaded = load_scene(scene);
-    ObjectSource a(loaded.a), b(loaded.b);
-    ReferenceVoxeliser voxeliser;
-    auto whole = [](const std::string&) { return true; };
-    const auto transforms = read_json(root / "separated/transforms.json");
-    for (const auto& frame : transforms.at("output")) {
-        if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
-        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
-            << "output frame " << frame.at("frame").get<int>();
-    }
+    EXPECT_EQ(test::overlapping_transitional_frames(scene, root / "separated/transforms.json", 0.03), std::vector<int>{});
 }
 
 TEST(Edit, TimelineNormalisesEveryPairOfSegments) {
@@ -257,15 +262,7 @@ TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
     cairo_surface_t* view = cairo_image_surface_create_from_png((out / "views/key_1.png").c_str());
     ASSERT_EQ(cairo_surface_status(view), CAIRO_STATUS_SUCCESS);
     EXPECT_EQ(cairo_image_surface_get_width(view), 800);
-    int orange = 0, blue = 0;
-    for (int y = 0; y < cairo_image_surface_get_height(view); ++y) {
-        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(view) + y * cairo_image_surface_get_stride(view));
-        for (int x = 0; x < cairo_image_surface_get_width(view); ++x) {
-            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
-            orange += r > b + 60;
-            blue += b > r + 60;
-        }
-    }
+    const auto [orange, blue] = orange_and_blue(view, 1.0, 60);
     cairo_surface_destroy(view);
     EXPECT_GT(orange, 1000);
     EXPECT_GT(blue, 1000);
@@ -615,16 +612,7 @@ TEST(Edit, AKeyPoseNoTransitionCanLeaveIsChosenAgain) {
     EXPECT_GT(turned, 20.0);  // B no longer faces A
     for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
 
-    const Scene loaded = load_scene(pole.fixture->scene);
-    ObjectSource a(loaded.a), b(loaded.b);
-    ReferenceVoxeliser voxeliser;
-    auto whole = [](const std::string&) { return true; };
-    const auto transforms = read_json(root / "vulkan/transforms.json");
-    for (const auto& frame : transforms.at("output")) {
-        if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
-        EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
-            << "output frame " << frame.at("frame").get<int>();
-    }
+    EXPECT_EQ(test::overlapping_transitional_frames(pole.fixture->scene, root / "vulkan/transforms.json", 0.03), std::vector<int>{});
 }
 
 TEST(Edit, ATransitionNoChoiceCanFreeIsNamed) {
@@ -678,16 +666,7 @@ TEST(Edit, RandomCrossingsAreFreedOrNamedAlikeOnBothBackends) {
             EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
             crossed += t.at("before_separation").at("frames_overlapping").get<int>() > 0;
         }
-        const Scene loaded = load_scene(fixture.scene);
-        ObjectSource a(loaded.a), b(loaded.b);
-        ReferenceVoxeliser voxeliser;
-        auto whole = [](const std::string&) { return true; };
-        const auto transforms = read_json(root / "vulkan/transforms.json");
-        for (const auto& frame : transforms.at("output")) {
-            if (frame.at("segment").get<std::string>().rfind("transition", 0) != 0) continue;
-            EXPECT_EQ(test::shared_voxels(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole), 0.03, voxeliser), 0u)
-                << "output frame " << frame.at("frame").get<int>();
-        }
+        EXPECT_EQ(test::overlapping_transitional_frames(fixture.scene, root / "vulkan/transforms.json", 0.03), std::vector<int>{});
     }
     EXPECT_GE(crossed, 2);
 }
@@ -744,15 +723,7 @@ TEST(Edit, ThePagePlaysTheSceneAndPlotsTheGroupInABrowser) {
     auto shot = chromium(fmt::format("--screenshot='{}' {}", (root / "page.png").string(), url), root / "profile2");
     cairo_surface_t* png = cairo_image_surface_create_from_png((root / "page.png").c_str());
     ASSERT_EQ(cairo_surface_status(png), CAIRO_STATUS_SUCCESS) << shot.output.substr(0, 2000);
-    int orange = 0, blue = 0;
-    for (int y = 0; y < cairo_image_surface_get_height(png); ++y) {
-        const auto* row = reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(png) + y * cairo_image_surface_get_stride(png));
-        for (int x = 0; x < cairo_image_surface_get_width(png) * 6 / 10; ++x) {  // the player's side
-            const int r = int(row[x] >> 16 & 255), b = int(row[x] & 255);
-            orange += r > b + 80;
-            blue += b > r + 80;
-        }
-    }
+    const auto [orange, blue] = orange_and_blue(png, 0.6, 80);  // the player's side
     cairo_surface_destroy(png);
     EXPECT_GT(orange, 500);
     EXPECT_GT(blue, 500);
