@@ -80,10 +80,10 @@ Json group_rows(const fs::path& dir, const Json& segment) {
 // view/data.js: result.json as written, transforms.json's segments and roots, the groups' members.
 std::string page_data(const fs::path& dir) {
     const Json result = read_json(dir / "result.json");
-    const Json transforms = read_json(dir / "transforms.json");
     if (!result.contains("output") || !result.at("output").contains("scene_fps") || !result.at("output").at("scene_fps").is_number())
-        fail((dir / "result.json").string(), "names no scene.glb with its frame rate (written with --no-glb, or by an amhv before the page): "
-                                             "run `amhv edit` again");
+        fail((dir / "result.json").string(), "names no scene.glb with its frame rate (an `amhv sweep` folder, an edit written with --no-glb, "
+                                             "or by an amhv before the page): the page is for the output of `amhv edit`");
+    const Json transforms = read_json(dir / "transforms.json");
     Json roots = Json::array();
     for (const Json& frame : transforms.at("output"))
         roots.push_back({frame.at("A").at("root")[0], frame.at("A").at("root")[1], frame.at("B").at("root")[0], frame.at("B").at("root")[1]});
@@ -106,12 +106,13 @@ fs::path three_js_dir() {
 
 PageReport write_view_page(const fs::path& dir, const fs::path& out) {
     const fs::path glb = dir / "scene.glb";
-    if (!fs::is_regular_file(glb)) fail(glb.string(), "is missing: the page plays it (run `amhv edit` without --no-glb)");
+    if (!fs::is_regular_file(dir / "result.json")) fail(dir.string(), "has no result.json: the page is for the output of `amhv edit`");
     const fs::path three = three_js_dir();
     for (const auto& [from, to] : kThreeFiles)
         if (!fs::is_regular_file(three / from))
             fail((three / from).string(), "is missing: the page needs three.js r147 (tools/setup.sh installs it from npm; or pass --no-page)");
-    const std::string data = page_data(dir);
+    const std::string data = page_data(dir);  // refuses a folder that is no edit's
+    if (!fs::is_regular_file(glb)) fail(glb.string(), "is missing: the page plays it (run `amhv edit` without --no-glb)");
     const fs::path view = out / "view";
     fs::create_directories(view);
     for (const auto& [from, to] : kThreeFiles) fs::copy_file(three / from, view / to, fs::copy_options::overwrite_existing);
