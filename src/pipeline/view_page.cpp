@@ -87,8 +87,15 @@ std::string page_data(const fs::path& dir) {
     Json roots = Json::array();
     for (const Json& frame : transforms.at("output"))
         roots.push_back({frame.at("A").at("root")[0], frame.at("A").at("root")[1], frame.at("B").at("root")[0], frame.at("B").at("root")[1]});
+    // The groups are where the edit found them: its own folder, or the sweep it reused.
+    fs::path groups_dir = dir;
+    if (result.contains("from_sweep") && result.at("from_sweep").is_string()) {
+        groups_dir = result.at("from_sweep").get<std::string>();
+        if (!fs::is_directory(groups_dir))
+            fail((dir / "result.json").string(), "reused the sweep in '{}', which holds the groups the page plots and is gone", groups_dir.string());
+    }
     Json groups = Json::array();
-    for (const Json& segment : result.at("segments")) groups.push_back(group_rows(dir, segment));
+    for (const Json& segment : result.at("segments")) groups.push_back(group_rows(groups_dir, segment));
     const Json data = {{"result", result},
                        {"transforms", {{"frames", transforms.at("frames")}, {"segments", transforms.at("segments")}}},
                        {"roots", std::move(roots)},
