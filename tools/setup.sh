@@ -12,8 +12,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenvdb-dev libboost-iostreams-dev
   python3 python3-openvdb universal-ctags time
-  libtinygltf-dev libnanoflann-dev
+  libtinygltf-dev libnanoflann-dev zlib1g-dev
   chromium
+  slurm-wlm   # the one-node Slurm cluster of the scale-out test (tests/slurm_cluster.sh)
 )
 # Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
 # nodejs bundles npm and conflicts with Debian's npm package).

@@ -41,7 +41,9 @@ PoseOutcome evaluate(const SweepProblem& p, const PoseSides& s, int i, int j, in
 
 }  // namespace
 
-SweepResult ReferenceSweeper::sweep(const SweepProblem& problem) { return sweep_angles(problem, 0, problem.range.angles); }
+SweepResult ReferenceSweeper::sweep(const SweepProblem& problem) {
+    return sweep_angles(problem, problem.first_angle, problem.angle_end() - problem.first_angle);
+}
 
 SweepResult ReferenceSweeper::sweep_angles(const SweepProblem& problem, int first_angle, int angle_count) {
     validate(problem);

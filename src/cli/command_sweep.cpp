@@ -4,6 +4,7 @@
 
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
+#include "src/pipeline/shard_stage.hpp"
 #include "src/pipeline/solutions_export.hpp"
 #include "src/pipeline/sweep_stage.hpp"
 #include "src/core/error.hpp"
@@ -20,6 +21,7 @@ struct SweepArguments {
     int segment = 0;  // 0: all
     int device = -1;
     bool require_solutions = false, maps = true, timings = true, csv = false;
+    std::optional<std::string> shard;  // --shard [K/N]
 };
 
 void run_check(const std::string& file) {
@@ -31,8 +33,25 @@ void run_check(const std::string& file) {
         if (!o->floor_note().empty()) std::cout << "# " << o->floor_note() << '\n';
 }
 
+// `amhv sweep --shard K/N`: one shard's folder; the options that shape the files are merge's.
+void run_shard(const SweepArguments& args, std::chrono::steady_clock::time_point start) {
+    if (args.segment || args.csv || !args.maps || args.require_solutions)
+        throw Error("--shard: --segment, --csv, --no-maps and --require-solutions are options of `amhv merge`, which writes the files");
+    const pipeline::ShardIndex shard = pipeline::parse_shard(*args.shard);
+    Scene scene = load_scene(args.scene);
+    pipeline::plan_shards(scene, shard.count);  // refuses an impossible N before the backend starts
+    Backend backend(args.backend, args.device);
+    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
+    StagedOutput out(args.out, scene_inputs(scene));
+    const results::ShardManifest manifest = pipeline::sweep_shard(scene, backends, out.dir(), shard, args.timings, start);
+    out.commit();
+    std::cout << fmt::format("wrote {}/ (shard.json and {} outcome files: shard {} of {})\n", out.target().string(), manifest.pieces.size(), shard.index,
+                             shard.count);
+}
+
 void run_sweep(const SweepArguments& args) {
     const auto start = std::chrono::steady_clock::now();
+    if (args.shard) return run_shard(args, start);
     Scene scene = load_scene(args.scene);
     if (args.segment < 0 || args.segment > int(scene.segments.size()))
         throw Error(fmt::format("--segment: {} is not a key segment of {} (1..{})", args.segment, args.scene, scene.segments.size()));
@@ -86,6 +105,9 @@ void add_scene_commands(CLI::App& app) {
     sweep->add_flag("!--no-maps", args->maps, "Skip the feasibility maps");
     sweep->add_flag("--csv", args->csv, "Also write each solution group as segment_N/solutions.csv (text: gigabytes at fine sampling)");
     sweep->add_flag("!--no-timings", args->timings, "Leave timings out of result.json (byte-identical reruns)");
+    sweep->add_option("--shard", args->shard,
+                      "Sweep only shard K of N of the scene's work (K/N; without a value, K and N from the Slurm array task) into a shard folder for `amhv merge`")
+        ->expected(0, 1);
     sweep->callback([args] { run_sweep(*args); });
 }
 

@@ -42,6 +42,7 @@ int run(int argc, char** argv) {
     add_edit_command(app);
     add_probe_command(app);
     add_view_command(app);
+    add_shard_commands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -106,6 +106,34 @@ void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSourc
 
 }  // namespace
 
+void finish_segment(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, const fs::path& out,
+                    const SweepStageOptions& options, results::Json timings, SweepStage& stage) {
+    auto t0 = std::chrono::steady_clock::now();
+    const auto dir = out / fmt::format("segment_{}", segment.index);
+    fs::create_directories(dir);
+    SolutionGroup group = limited_group(segment, problem, result);
+    const std::uint64_t limited = result.solutions - group.size();
+    if (options.csv) write_solutions_csv(dir / "solutions.csv", group, describer(problem));
+    const auto group_start = std::chrono::steady_clock::now();
+    const results::GroupLattice lattice = results::group_lattice(scene, segment.index, problem.range);
+    results::write_group_vdb(dir / "group.vdb", group, lattice);
+    results::write_json_file(dir / "group_summary.json", results::group_summary(group, lattice));
+    timings["group"] = seconds_since(group_start);
+    const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0,
+                                      std::uint64_t(fs::file_size(dir / "group.vdb")), options.csv};
+    timings["output"] = seconds_since(t0);
+    stage.mhv_seconds += timings["mhv"].get<double>();
+    stage.sweep_seconds += timings["sweep"].get<double>();
+    stage.output_seconds += timings["output"].get<double>();
+
+    stage.segments.push_back(
+        results::sweep_segment_json(scene, segment, problem, result, group, limited, files, options.timings ? timings : results::Json(nullptr)));
+    // An empty group says why: the poses that came nearest.
+    if (group.empty()) stage.segments.back()["near_misses"] = near_misses(problem, result);
+    report_segment(segment, problem, result, limited, group.size(), timings["sweep"].get<double>());
+    stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(group)));
+}
+
 SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper, const fs::path& out,
                            const SweepStageOptions& options) {
     SweepStage stage;
@@ -125,31 +153,7 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         timings["sweep"] = seconds_since(t0);
         if (const auto stages = sweeper.stage_seconds(); stages.size() == 4)
             timings["sweep_stages"] = {{"contact", stages[0]}, {"dictionary", stages[1]}, {"fidelity", stages[2]}, {"visibility", stages[3]}};
-
-        t0 = std::chrono::steady_clock::now();
-        const auto dir = out / fmt::format("segment_{}", segment.index);
-        fs::create_directories(dir);
-        SolutionGroup group = limited_group(segment, problem, result);
-        const std::uint64_t limited = result.solutions - group.size();
-        if (options.csv) write_solutions_csv(dir / "solutions.csv", group, describer(problem));
-        const auto group_start = std::chrono::steady_clock::now();
-        const results::GroupLattice lattice = results::group_lattice(scene, segment.index, problem.range);
-        results::write_group_vdb(dir / "group.vdb", group, lattice);
-        results::write_json_file(dir / "group_summary.json", results::group_summary(group, lattice));
-        timings["group"] = seconds_since(group_start);
-        const results::SegmentFiles files{options.maps, options.maps ? write_feasibility_maps(dir / "feasibility", problem, result) : 0,
-                                          std::uint64_t(fs::file_size(dir / "group.vdb")), options.csv};
-        timings["output"] = seconds_since(t0);
-        stage.mhv_seconds += timings["mhv"].get<double>();
-        stage.sweep_seconds += timings["sweep"].get<double>();
-        stage.output_seconds += timings["output"].get<double>();
-
-        stage.segments.push_back(results::sweep_segment_json(scene, segment, problem, result, group, limited, files,
-                                                             options.timings ? timings : results::Json(nullptr)));
-        // An empty group says why: the poses that came nearest.
-        if (group.empty()) stage.segments.back()["near_misses"] = near_misses(problem, result);
-        report_segment(segment, problem, result, limited, group.size(), timings["sweep"].get<double>());
-        stage.sweeps.push_back(key_sweep(segment, problem, result, std::move(group)));
+        finish_segment(scene, segment, problem, result, out, options, std::move(timings), stage);
     }
     return stage;
 }

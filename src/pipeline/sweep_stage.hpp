@@ -33,6 +33,12 @@ struct SweepStageOptions {
 SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper,
                            const std::filesystem::path& out, const SweepStageOptions& options);
 
+// The files of one swept key segment (segment_N/...) and its result.json entry, appended to `stage`
+// with one printed line: the same for `amhv sweep`, `amhv edit` and `amhv merge`. `timings` holds
+// the segment's "mhv" and "sweep" seconds.
+void finish_segment(const Scene& scene, const KeySegment& segment, const SweepProblem& problem, const SweepResult& result,
+                    const std::filesystem::path& out, const SweepStageOptions& options, results::Json timings, SweepStage& stage);
+
 // Reads `dir` written by a sweep (or an edit) of the same scene; throws amhv::Error naming the file
 // when the folder does not match `scene`.
 SweepStage read_sweep_stage(const std::filesystem::path& dir, const Scene& scene);

@@ -74,6 +74,8 @@ void validate(const SweepProblem& problem) {
     validate_object(problem.a, problem);
     validate_object(problem.b, problem);
     if (problem.range.angles < 1) fail("sampling.angle_step_deg", "gives no angle");
+    if (problem.first_angle < 0 || problem.first_angle > problem.range.angles || problem.angle_count < -1)
+        fail("sweep", "angles {} (+{}) are not angles of the {} swept", problem.first_angle, problem.angle_count, problem.range.angles);
     // The step is stored beside the angle count: both must describe the same full circle.
     if (!(problem.angle_step_deg > 0) || std::abs(problem.range.angles * problem.angle_step_deg - 360.0) > 1e-6)
         fail("sampling.angle_step_deg", "{} angles of {} deg do not make the full circle", problem.range.angles, problem.angle_step_deg);

@@ -75,6 +75,11 @@ struct SweepProblem {
     double voxel = 0.01;
     double angle_step_deg = 2.0;
     PoseRange range;
+    // The angles this sweep tests, k in [first_angle, first_angle + angle_count) (a shard of the
+    // scene's work, `amhv sweep --shard`); the other angles' poses stay FailsContact. -1: all.
+    int first_angle = 0, angle_count = -1;
+
+    int angle_end() const { return angle_count < 0 ? range.angles : std::min(range.angles, first_angle + angle_count); }
 
     int frames() const { return a.interest.frames(); }
     // Frames the 0&0 (a) parts must touch on.

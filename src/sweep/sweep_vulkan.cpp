@@ -35,9 +35,9 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     result.range = r;
     result.outcomes.resize(r.size(), PoseOutcome::FailsContact);
     for (int level = r.z_first; level <= r.z_last; ++level) {
-        const int done_before = (level - r.z_first) * r.angles;
+        const int swept = problem.angle_end() - problem.first_angle, done_before = (level - r.z_first) * swept;
         std::function<void(int, int)> level_progress;
-        if (progress) level_progress = [&](int done, int) { progress(done_before + done, r.angles * r.depth()); };
+        if (progress) level_progress = [&](int done, int) { progress(done_before + done, swept * r.depth()); };
         SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, level_progress}, level);
         const SweepResult level_result = run.run();
         std::copy(level_result.outcomes.begin(), level_result.outcomes.end(),
@@ -57,9 +57,11 @@ SweepResult SweepRun::run() {
         return result_;
     }
     size_batches();
-    for (int angle_first = 0; angle_first < range_.angles; angle_first += angles_per_batch_) {
-        sweep_batch(angle_first);
-        if (tools_.progress) tools_.progress(std::min(angle_first + angles_per_batch_, range_.angles), range_.angles);
+    // Only the problem's angles (all but in a shard); the others stay FailsContact.
+    const int first = problem_.first_angle, end = problem_.angle_end();
+    for (int angle_first = first; angle_first < end; angle_first += angles_per_batch_) {
+        sweep_batch(angle_first, std::min(angles_per_batch_, end - angle_first));
+        if (tools_.progress) tools_.progress(std::min(angle_first + angles_per_batch_, end) - first, end - first);
     }
     result_.count();
     return std::move(result_);
@@ -73,8 +75,7 @@ void SweepRun::lap(int stage) {
 
 // One batch of angles through every stage; each stage's wall time, host work included, goes to
 // its entry of SweepStats::seconds_per_stage.
-void SweepRun::sweep_batch(int angle_first) {
-    const int batch_angles = std::min(angles_per_batch_, range_.angles - angle_first);
+void SweepRun::sweep_batch(int angle_first, int batch_angles) {
     tools_.stats.poses_per_stage[0] += per_angle_ * std::uint64_t(batch_angles);
     clock_ = std::chrono::steady_clock::now();
     std::vector<Pose> survivors =

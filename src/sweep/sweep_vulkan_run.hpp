@@ -200,7 +200,7 @@ private:
                       const std::vector<std::uint8_t>& candidates) const;
 
     // ---- batches (sweep_vulkan.cpp) ----
-    void sweep_batch(int angle_first);
+    void sweep_batch(int angle_first, int batch_angles);
     // Adds the time since the last lap to `stage`'s wall time.
     void lap(int stage);
     std::vector<Pose> contact_and_dictionary_by_maps(int angle_first, int batch_angles);
