@@ -11,17 +11,12 @@ set -euo pipefail
 amhv="$1"
 scene="$2/data/scenes/handshake.toml"
 work=$(mktemp -d "${TMPDIR:-/tmp}/amhv-slurm.XXXXXX")
-export SLURM_CONF="$work/slurm/slurm.conf"
-daemons=()
+source "$2/tools/slurm_one_node.sh"
 jobs_submitted=()
 
 cleanup() {
   if [ ${#jobs_submitted[@]} -gt 0 ]; then timeout 20 scancel --quiet "${jobs_submitted[@]}" 2>/dev/null || true; fi
-  for pid in "${daemons[@]}"; do kill "$pid" 2>/dev/null || true; done
-  for pid in "${daemons[@]}"; do
-    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
-    kill -9 "$pid" 2>/dev/null || true
-  done
+  slurm_one_node_stop
   rm -rf "$work"
 }
 trap cleanup EXIT
@@ -34,64 +29,7 @@ fail() {
   exit 1
 }
 
-free_port() { python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
-
-start_cluster() {
-  local node user
-  node=$(hostname -s)
-  user=$(id -un)
-  mkdir -p "$work/slurm/state" "$work/slurm/spool"
-  cat > "$SLURM_CONF" <<EOF
-ClusterName=amhvtest
-SlurmctldHost=$node(127.0.0.1)
-SlurmctldPort=$(free_port)
-SlurmdPort=$(free_port)
-SlurmUser=$user
-SlurmdUser=$user
-AuthType=auth/none
-CredType=cred/none
-StateSaveLocation=$work/slurm/state
-SlurmdSpoolDir=$work/slurm/spool
-SlurmctldPidFile=$work/slurm/slurmctld.pid
-SlurmdPidFile=$work/slurm/slurmd.pid
-SlurmctldLogFile=$work/slurm/slurmctld.log
-SlurmdLogFile=$work/slurm/slurmd.log
-ProctrackType=proctrack/linuxproc
-TaskPlugin=task/none
-JobAcctGatherType=jobacct_gather/none
-AccountingStorageType=accounting_storage/none
-MpiDefault=none
-SelectType=select/cons_tres
-SelectTypeParameters=CR_Core
-ReturnToService=2
-NodeName=$node NodeAddr=127.0.0.1 CPUs=$(nproc) State=UNKNOWN
-PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
-EOF
-  slurmctld -D -i -f "$SLURM_CONF" > "$work/slurm/slurmctld.out" 2>&1 &
-  daemons+=($!)
-  slurmd -D -f "$SLURM_CONF" -N "$node" > "$work/slurm/slurmd.out" 2>&1 &
-  daemons+=($!)
-  for _ in $(seq 120); do
-    [ "$(sinfo -h -N -o %T 2>/dev/null)" = "idle" ] && return 0
-    sleep 0.5
-  done
-  fail "the one-node cluster did not come up: $(sinfo 2>&1 | tail -n 2)"
-}
-
-# Waits until job $1 has ended; prints its JobState (COMPLETED, FAILED, CANCELLED, ...).
-wait_for_job() {
-  local state
-  for _ in $(seq 1800); do
-    state=$(scontrol show job "$1" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' | sort -u | tr '\n' ' ')
-    case "$state" in
-      *PENDING* | *RUNNING* | *CONFIGURING* | *COMPLETING* | "") sleep 0.5 ;;
-      *) echo "$state"; return 0 ;;
-    esac
-  done
-  echo "TIMEOUT"
-}
-
-start_cluster
+slurm_one_node_start "$work/slurm" || fail "the one-node cluster did not come up"
 "$amhv" sweep "$scene" --out "$work/one" --no-timings > /dev/null || fail "the one-machine sweep failed"
 "$amhv" plan "$scene" --shards 4 --cpus-per-task 1 --no-timings --out "$work/plan" > /dev/null || fail "amhv plan failed"
 submitted=$(bash "$work/plan/slurm.sbatch") || fail "slurm.sbatch could not submit: $submitted"

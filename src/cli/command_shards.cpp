@@ -18,7 +18,7 @@ namespace {
 
 struct MergeArguments {
     std::vector<std::string> shards;
-    std::string out, backend = "vulkan";
+    std::string out, backend = "vulkan", scene;
     int device = -1;
     bool require_solutions = false, maps = true, timings = true, csv = false;
 };
@@ -27,7 +27,8 @@ void run_merge(const MergeArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::vector<fs::path> folders(args.shards.begin(), args.shards.end());
     const pipeline::ShardSet set = pipeline::read_shard_set(folders);
-    const Scene scene = load_scene(set.shards.front().scene);
+    // The shards name their scene; where this machine mounts it elsewhere, --scene (same hash).
+    const Scene scene = load_scene(args.scene.empty() ? set.shards.front().scene : args.scene);
     pipeline::check_shard_set(set, scene);
     std::vector<fs::path> inputs = scene_inputs(scene);
     inputs.insert(inputs.end(), folders.begin(), folders.end());
@@ -68,6 +69,7 @@ void add_shard_commands(CLI::App& app) {
     auto* merge = app.add_subcommand("merge", "Merge the shard folders of `amhv sweep --shard` into the folder `amhv sweep` writes on one machine");
     merge->add_option("shards", merge_args->shards, "Every shard folder of one plan (K/N for K = 1..N)")->required();
     merge->add_option("--out", merge_args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
+    merge->add_option("--scene", merge_args->scene, "The scene file, where it is not at the path the shards name (it must be the same scene)");
     add_backend_options(*merge, merge_args->backend, merge_args->device);
     merge->add_flag("--require-solutions", merge_args->require_solutions, "Exit non-zero when a key segment has no solution");
     merge->add_flag("!--no-maps", merge_args->maps, "Skip the feasibility maps");

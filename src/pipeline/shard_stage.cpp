@@ -7,7 +7,11 @@
 #include <iostream>
 #include <map>
 
+#include <fstream>
+
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <zlib.h>
 
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
@@ -47,11 +51,36 @@ int slurm_shard_index() {
     return id - first + 1;
 }
 
+std::uint32_t file_crc(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail(path.string(), "cannot open the file");
+    std::vector<char> buffer(std::size_t(1) << 20);
+    auto crc = std::uint32_t(crc32(0, nullptr, 0));
+    while (in) {
+        in.read(buffer.data(), std::streamsize(buffer.size()));
+        crc = std::uint32_t(crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), uInt(in.gcount())));
+    }
+    if (in.bad()) fail(path.string(), "reading the file failed");
+    return crc;
+}
+
+// "name size time;" of every file in `folder`, by name.
+std::string folder_listing(const fs::path& folder) {
+    std::vector<std::string> lines;
+    for (const fs::directory_entry& entry : fs::directory_iterator(folder))
+        if (entry.is_regular_file())
+            lines.push_back(fmt::format("{} {} {};", entry.path().filename().string(), entry.file_size(),
+                                        entry.last_write_time().time_since_epoch().count()));
+    std::sort(lines.begin(), lines.end());
+    return fmt::format("{}", fmt::join(lines, ""));
+}
+
 results::ShardManifest manifest_header(const Scene& scene, const Backends& backends, ShardIndex shard) {
     results::ShardManifest m;
     m.program = own_program();
     m.scene = scene.file.string();
     m.scene_hash = results::scene_hash(scene);
+    m.inputs = inputs_fingerprint(scene);
     m.voxel = scene.sampling.voxel;
     m.angle_step_deg = scene.sampling.angle_step_deg;
     m.angles = scene.sampling.angles();
@@ -111,6 +140,19 @@ results::Json shard_timings(const ShardSet& set) {
 }
 
 }  // namespace
+
+std::string inputs_fingerprint(const Scene& scene) {
+    std::string text;
+    const std::vector<fs::path> inputs = scene_inputs(scene);
+    // Paths relative to the scene's folder: the same scene mounted elsewhere has the same fingerprint.
+    const fs::path folder = scene.file.parent_path();
+    for (auto input = inputs.begin() + 1; input != inputs.end(); ++input) {  // the TOML itself is the scene hash
+        const std::string name = fs::absolute(*input).lexically_relative(folder).string();
+        if (fs::is_regular_file(*input)) text += fmt::format("{} {} {:08x}\n", name, fs::file_size(*input), file_crc(*input));
+        else if (fs::is_directory(*input)) text += fmt::format("{}/ {}\n", name, folder_listing(*input));
+    }
+    return fmt::format("{:08x}", std::uint32_t(crc32(crc32(0, nullptr, 0), reinterpret_cast<const Bytef*>(text.data()), uInt(text.size()))));
+}
 
 std::uint64_t angle_cost(const Scene& scene, const KeySegment& segment) {
     const std::uint64_t frames = std::uint64_t(std::max(segment.a[1] - segment.a[0], segment.b[1] - segment.b[0]) + 1);
@@ -197,9 +239,9 @@ ShardSet read_shard_set(const std::vector<fs::path>& folders) {
         const results::ShardManifest& first = set.shards.empty() ? m : set.shards.front();
         const std::string where = manifest_path(folders[n]);
         if (m.program != own_program()) fail(where, "was written by {}, this is {}: sweep the shards again with one program", m.program, own_program());
-        if (m.scene != first.scene || m.scene_hash != first.scene_hash)
-            fail(where, "is a shard of {} (scene hash {}), {} one of {} ({}): merge the shards of one scene", m.scene, m.scene_hash,
-                 folders.front().string(), first.scene, first.scene_hash);
+        if (m.scene != first.scene || m.scene_hash != first.scene_hash || m.inputs != first.inputs)
+            fail(where, "is a shard of {} (scene hash {}, inputs {}), {} one of {} ({}, {}): merge the shards of one scene", m.scene, m.scene_hash,
+                 m.inputs, folders.front().string(), first.scene, first.scene_hash, first.inputs);
         if (m.count != first.count)
             fail(where, "is shard {} of {}, {} is shard {} of {}: merge the shards of one plan", m.index, m.count, folders.front().string(), first.index,
                  first.count);
@@ -222,8 +264,10 @@ ShardSet read_shard_set(const std::vector<fs::path>& folders) {
 void check_shard_set(const ShardSet& set, const Scene& scene) {
     const results::ShardManifest& first = set.shards.front();
     if (results::scene_hash(scene) != first.scene_hash)
-        fail(first.scene, "has changed since the shards were swept (scene hash {} now, {} in the shards): sweep them again", results::scene_hash(scene),
+        fail(scene.file.string(), "has changed since the shards were swept (scene hash {} now, {} in the shards): sweep them again", results::scene_hash(scene),
              first.scene_hash);
+    if (inputs_fingerprint(scene) != first.inputs)
+        fail(scene.file.string(), "its input files (takes, meshes, labels, tracks) have changed since the shards were swept: sweep them again");
     const std::vector<ShardWork> plan = plan_shards(scene, first.count);
     for (std::size_t s = 0; s < set.shards.size(); ++s) {
         const results::ShardManifest& m = set.shards[s];

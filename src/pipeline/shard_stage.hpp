@@ -27,6 +27,11 @@ std::uint64_t angle_cost(const Scene& scene, const KeySegment& segment);
 // The scene's work in `count` shards (index 0 is shard 1). Throws when count is not 1..angles.
 std::vector<ShardWork> plan_shards(const Scene& scene, int count);
 
+// A fingerprint of what the scene reads beyond its TOML: the CRC-32 and size of every input file
+// (takes, labels, tracks) and the names, sizes and times of the files in every mesh-sequence folder.
+// Shards and merge compare it, so that a take changed between them is refused, not merged.
+std::string inputs_fingerprint(const Scene& scene);
+
 struct ShardIndex {
     int index = 0, count = 0;  // K of N, K from 1
 };

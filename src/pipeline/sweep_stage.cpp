@@ -8,7 +8,6 @@
 #include <fmt/format.h>
 
 #include "src/core/clock.hpp"
-#include "host/reference/sweep_reference.hpp"
 #include "src/core/error.hpp"
 #include "src/results/appearance_files.hpp"
 #include "src/results/edit_files.hpp"
@@ -79,15 +78,16 @@ SolutionGroup limited_group(const KeySegment& segment, const SweepProblem& probl
 }
 
 // With --from-sweep the groups come from files: the pose the DP chose in each key segment is swept
-// again with the CPU reference (one pose: the segment's volumes and one test per constraint), so
+// again (one pose: the segment's volumes and one test per constraint, on the run's backend, which
+// the tests hold equal to the reference; the reference's dense cones cost minutes at 5 mm), so
 // that an edit never rests on a row that is not a solution of this scene.
-void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
+void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b, Backends& backends,
                          const std::string& from_sweep) {
     static const char* kConstraint[] = {"contact", "the interaction dictionary", "fidelity", "visibility"};
     for (std::size_t s = 0; s < edit.keys.size(); ++s) {
         const KeyEdit& key = edit.keys[s];
         if (key.captured) continue;
-        SweepProblem problem = build_segment(scene, scene.segments[s], a, b, voxeliser).problem;
+        SweepProblem problem = build_segment(scene, scene.segments[s], a, b, backends.voxeliser).problem;
         const Solution& pose = key.chosen;
         const std::string where = fmt::format("{}/segment_{}/group.vdb", from_sweep, key.index);
         const PoseRange& r = problem.range;
@@ -97,7 +97,9 @@ void verify_chosen_poses(const Scene& scene, const EditResult& edit, ObjectSourc
         problem.range.i_first = problem.range.i_last = pose.i;
         problem.range.j_first = problem.range.j_last = pose.j;
         problem.range.z_first = problem.range.z_last = pose.l;
-        const PoseOutcome outcome = ReferenceSweeper().sweep_angles(problem, pose.k, 1).at(pose.i, pose.j, pose.k, pose.l);
+        problem.first_angle = pose.k;
+        problem.angle_count = 1;
+        const PoseOutcome outcome = backends.sweeper.sweep(problem).at(pose.i, pose.j, pose.k, pose.l);
         if (outcome != PoseOutcome::Solution)
             fail(where, "the chosen pose ({}, {}, {} deg) is not a solution of key segment {}: it fails {} (was the folder swept from this scene?)",
                  pose.x, pose.y, pose.theta_deg, key.index, kConstraint[int(outcome)]);
@@ -192,7 +194,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     edit_options.allow_empty = options.allow_empty;
     edit_options.allow_transition_overlap = options.allow_transition_overlap;
     EditResult edit = edit_scene(scene, stage.sweeps, a, b, backends.voxeliser, edit_options);
-    if (!options.from_sweep.empty()) verify_chosen_poses(scene, edit, a, b, backends.voxeliser, options.from_sweep);
+    if (!options.from_sweep.empty()) verify_chosen_poses(scene, edit, a, b, backends, options.from_sweep);
 
     auto t0 = std::chrono::steady_clock::now();
     write_transforms_json(out / "transforms.json", scene, edit);

@@ -193,6 +193,7 @@ void write_shard_manifest(const fs::path& folder, const ShardManifest& m) {
                            {"program", m.program},
                            {"scene", m.scene},
                            {"scene_hash", m.scene_hash},
+                           {"inputs", m.inputs},
                            {"sampling", {{"voxel_m", m.voxel}, {"angle_step_deg", m.angle_step_deg}, {"angles", m.angles}}},
                            {"shard", {{"index", m.index}, {"count", m.count}}},
                            {"backend", m.backend},
@@ -218,6 +219,7 @@ ShardManifest read_shard_manifest(const fs::path& folder) {
         m.program = json.at("program").get<std::string>();
         m.scene = json.at("scene").get<std::string>();
         m.scene_hash = json.at("scene_hash").get<std::string>();
+        m.inputs = json.at("inputs").get<std::string>();
         m.voxel = json.at("sampling").at("voxel_m").get<double>();
         m.angle_step_deg = json.at("sampling").at("angle_step_deg").get<double>();
         m.angles = json.at("sampling").at("angles").get<int>();

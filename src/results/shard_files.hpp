@@ -31,6 +31,7 @@ struct ShardPieceRecord {
 
 struct ShardManifest {
     std::string program, scene, scene_hash;
+    std::string inputs;  // fingerprint of the scene's input files (pipeline::inputs_fingerprint)
     double voxel = 0, angle_step_deg = 0;
     int angles = 0;
     int index = 0, count = 0;  // shard K of N, K from 1
