@@ -681,10 +681,13 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
         const SparseColumns sparse = sparse_columns(volume, slots);
         for (const double degrees : {0.0, 17.0, 90.0, 133.0, 251.5}) {
             const posemap::Trig trig = posemap::quantise_rotation(degrees * std::numbers::pi / 180.0);
-            const std::array<std::int32_t, 4> clip{-40, -30, 35, 40};
+            // A clip per slot (the first as wide as them all), so runs end where their slot's clip does.
+            SlotClips clips;
+            for (std::size_t s = 0; s < slots.size(); ++s)
+                clips.push_back({-40 + 9 * std::int32_t(s), -30 + 4 * std::int32_t(s), 35 - 6 * std::int32_t(s), 40 - 5 * std::int32_t(s)});
             const int angle_in_batch = 2;
             std::vector<SliceRun> runs{{7, 7, 7, 7}};  // appended after what is there
-            const int longest = append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clip, runs);
+            const int longest = append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, runs);
             // Voxel by voxel: keys of set bits per A column of the clip, then runs along x.
             const int zbits = 32 * volume.zwords;
             const std::int32_t key_base = angle_in_batch * std::int32_t(slots.size()) * zbits;
@@ -692,6 +695,7 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
             int expected_longest = 0;
             for (std::int32_t key = key_base; key < key_base + std::int32_t(slots.size()) * zbits; ++key) {
                 const int slot = slots[std::size_t((key - key_base) / zbits)], z = (key - key_base) % zbits;
+                const auto& clip = clips[std::size_t((key - key_base) / zbits)];
                 for (std::int32_t gy = clip[1]; gy <= clip[3]; ++gy) {
                     auto set = [&](std::int32_t gx) {
                         const posemap::Column c = posemap::source_column(gx, gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);

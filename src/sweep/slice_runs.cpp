@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <limits>
+#include <memory>
 
 #include "src/core/error.hpp"
 
@@ -17,6 +18,7 @@ namespace {
 class RowRuns {
 public:
     explicit RowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
+    std::size_t words() const { return previous_.size(); }
 
     void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
         y_ = y;
@@ -146,28 +148,38 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 }
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
-                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const std::array<std::int32_t, 4>& clip,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
                        std::vector<SliceRun>& out) {
     const ColumnVolume& moving = *sparse.volume;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
-    // One pass over the union of the slots' mapped boxes: each A column is mapped once and reads
-    // the non-zero words of every slot from its B column. Outside a slot's own box its words are
-    // zero, so the runs are those of slot-by-slot passes.
+    if (clips.size() != sparse.slots.size()) fail("sweep", "internal: {} clips for {} slots", clips.size(), sparse.slots.size());
+    // One pass over the union of the slots' mapped boxes within their clips: each A column is
+    // mapped once and reads the non-zero words of every slot from its B column. Outside a slot's
+    // own box its words are zero, and outside its clip they are skipped, so the runs are those of
+    // slot-by-slot passes.
     std::array<std::int32_t, 4> box{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max(),
                                     std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
-    for (const int slot : sparse.slots) {
-        const auto b = mapped_bounds(moving, moving.slot_boxes[std::size_t(slot)], trig, root_a, root_b);
+    bool clipped = false;  // whether some slot's clip is narrower than the box
+    for (std::size_t s = 0; s < sparse.slots.size(); ++s) {
+        auto b = mapped_bounds(moving, moving.slot_boxes[std::size_t(sparse.slots[s])], trig, root_a, root_b);
+        const auto& c = clips[s];
+        b = {std::max(b[0], c[0]), std::max(b[1], c[1]), std::min(b[2], c[2]), std::min(b[3], c[3])};
         if (b[0] > b[2] || b[1] > b[3]) continue;
         box = {std::min(box[0], b[0]), std::min(box[1], b[1]), std::max(box[2], b[2]), std::max(box[3], b[3])};
     }
-    box = {std::max(box[0], clip[0]), std::max(box[1], clip[1]), std::min(box[2], clip[2]), std::min(box[3], clip[3])};
+    for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];
     int longest = 0;
     // Runs in visiting order (row by row), then counted into key order: within a key they stay in
-    // (y, x) order, as a stable sort by key would leave them.
-    std::vector<SliceRun> visited;
-    RowRuns row{key_count / 32};
+    // (y, x) order, as a stable sort by key would leave them. The scratch stays with the thread:
+    // this runs once per angle and test, and fresh buffers cost more in page faults than the cut.
+    thread_local std::vector<SliceRun> visited;
+    thread_local std::unique_ptr<RowRuns> row_runs;
+    thread_local std::vector<std::uint32_t> first;
+    visited.clear();
+    if (!row_runs || row_runs->words() != key_count / 32) row_runs = std::make_unique<RowRuns>(key_count / 32);
+    RowRuns& row = *row_runs;
     for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
         row.start_row(gy, key_base, visited, longest);
         posemap::Step at = posemap::source_step(box[0], gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
@@ -176,13 +188,20 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
             const std::int64_t bx = source.x - moving.x0, by = source.y - moving.y0;
             if (bx >= 0 && by >= 0 && bx < moving.nx && by < moving.ny) {
                 const std::size_t c = std::size_t(by) * std::size_t(moving.nx) + std::size_t(bx);
-                for (std::uint32_t e = sparse.first[c]; e < sparse.first[c + 1]; ++e) row.add(sparse.entries[e].word, sparse.entries[e].bits);
+                for (std::uint32_t e = sparse.first[c]; e < sparse.first[c + 1]; ++e) {
+                    const SparseColumns::Entry& entry = sparse.entries[e];
+                    if (clipped) {
+                        const auto& clip = clips[std::size_t(entry.word / moving.zwords)];
+                        if (gx < clip[0] || gx > clip[2] || gy < clip[1] || gy > clip[3]) continue;
+                    }
+                    row.add(entry.word, entry.bits);
+                }
             }
             row.end_column(gx);
         }
         row.end_row(box[2]);
     }
-    std::vector<std::uint32_t> first(key_count + 1, 0u);
+    first.assign(key_count + 1, 0u);
     for (const SliceRun& run : visited) ++first[std::size_t(run.key - key_base) + 1];
     for (std::size_t k = 0; k < key_count; ++k) first[k + 1] += first[k];
     const std::size_t base = out.size();
@@ -191,10 +210,19 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     return longest;
 }
 
-std::array<std::int32_t, 4> pulled_clip(const ColumnVolume& fixed, int i_first, int i_last, int j_first, int j_last) {
-    if (fixed.empty() || i_first > i_last || j_first > j_last) return {1, 1, 0, 0};
-    return {std::int32_t(fixed.x0 + fixed.x_first - i_last), std::int32_t(fixed.y0 + fixed.y_first - j_last),
-            std::int32_t(fixed.x0 + fixed.x_last - i_first), std::int32_t(fixed.y0 + fixed.y_last - j_first)};
+SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last) {
+    SlotClips clips;
+    clips.reserve(slots.size());
+    for (const int slot : slots) {
+        const auto& box = fixed.slot_boxes[std::size_t(slot)];
+        if (box[0] > box[2] || box[1] > box[3] || i_first > i_last || j_first > j_last) {
+            clips.push_back({1, 1, 0, 0});
+            continue;
+        }
+        clips.push_back({std::int32_t(fixed.x0 + box[0] - i_last), std::int32_t(fixed.y0 + box[1] - j_last),
+                         std::int32_t(fixed.x0 + box[2] - i_first), std::int32_t(fixed.y0 + box[3] - j_first)});
+    }
+    return clips;
 }
 
 }  // namespace amhv

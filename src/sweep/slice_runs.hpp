@@ -55,17 +55,21 @@ struct SparseColumns {
 
 SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots);
 
+// Per slot index, a box of A columns ([x_first, y_first, x_last, y_last], global A lattice).
+using SlotClips = std::vector<std::array<std::int32_t, 4>>;
+
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
-// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, cut to the columns in
-// `clip` ([x_first, y_first, x_last, y_last], global A lattice). The appended runs are sorted by
-// key, then y, then x. Returns the longest run appended.
+// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs cut to
+// its box in `clips`. The appended runs are sorted by key, then y, then x. Returns the longest run
+// appended.
 int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
-                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const std::array<std::int32_t, 4>& clip,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
                        std::vector<SliceRun>& out);
 
-// The pulled columns that can meet `fixed` at an offset (i, j) with i in [i_first, i_last] and j
-// in [j_first, j_last]: column g meets fixed column g + (i, j), so g lies in the fixed volume's
-// occupied box shifted by minus those offsets. Runs cut to this box give the same map.
-std::array<std::int32_t, 4> pulled_clip(const ColumnVolume& fixed, int i_first, int i_last, int j_first, int j_last);
+// Per slot of `slots`, the pulled columns that can meet that slot of `fixed` at an offset (i, j)
+// with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed column g + (i, j),
+// so g lies in the slot's occupied box shifted by minus those offsets. Runs cut to these boxes give
+// the same map.
+SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last);
 
 }  // namespace amhv

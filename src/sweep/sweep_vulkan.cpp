@@ -93,15 +93,14 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
 // in contact. Returns the poses that pass both; the rest get their outcome.
 std::vector<Pose> SweepRun::contact_and_dictionary_by_maps(int angle_first, int batch_angles) {
     const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
-    const Rows all_rows(std::size_t(batch_angles), {0, height_ - 1});
+    const Rows all_rows(std::size_t(batch_angles), {0, height_ - 1, 0, width_ - 1});
     const auto contact = run_map(required_maps_[0].front(), 0, angle_first, batch_angles, all_rows, nullptr);
     lap(0);  // the dictionary maps count as the dictionary's time
-    Rows contact_rows(std::size_t(batch_angles), {height_, -1});
+    Rows contact_rows(std::size_t(batch_angles), {height_, -1, width_, -1});
     for (std::uint64_t p = 0; p < batch_poses; ++p)
         if (contact[p]) {
-            auto& r = contact_rows[std::size_t(p / per_angle_)];
-            const std::int32_t j = std::int32_t(p % per_angle_ / std::uint64_t(width_));
-            r = {std::min(r[0], j), std::max(r[1], j)};
+            const std::uint64_t rest = p % per_angle_;
+            widen(contact_rows[std::size_t(p / per_angle_)], std::int32_t(rest / std::uint64_t(width_)), std::int32_t(rest % std::uint64_t(width_)));
         }
     Meets dictionary;
     for (MapTest& test : required_maps_[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
@@ -151,11 +150,10 @@ std::vector<Pose> SweepRun::contact_pose_by_pose(int angle_first, int batch_angl
 std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles) {
     const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
     std::vector<std::uint8_t> passes;
-    Rows rows(std::size_t(batch_angles), {height_, -1});
+    Rows rows(std::size_t(batch_angles), {height_, -1, width_, -1});
     std::vector<std::uint8_t> candidates(batch_poses, 0);
     for (const Pose& q : survivors) {
-        auto& r = rows[std::size_t(q[0] - angle_first)];
-        r = {std::min(r[0], q[2] - range_.j_first), std::max(r[1], q[2] - range_.j_first)};
+        widen(rows[std::size_t(q[0] - angle_first)], q[2] - range_.j_first, q[1] - range_.i_first);
         candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
     }
     if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles, rows, candidates)) {

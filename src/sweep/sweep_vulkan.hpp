@@ -33,9 +33,10 @@ struct SweeperOptions {
     double pose_test_pairs = 8000;
     // Bytes of overlap maps one batch of angles may hold.
     std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
-    // Passes over the z slices of an overlap map, coarse to fine (every 16th slice first with 5,
-    // then the slices between, ... , the odd ones last): poses decided by a pass leave play and
-    // later passes skip the runs that reach only decided poses (1: one pass; at most 16).
+    // Passes over the z slices and rows of an overlap map, coarse to fine (with 5: the runs whose
+    // z and y are both multiples of 16 first, then of 8, 4, 2, the rest last): poses decided by a
+    // pass leave play and later passes skip the runs that reach only decided poses (1: one pass;
+    // at most 16).
     int map_passes = 5;
 };
 

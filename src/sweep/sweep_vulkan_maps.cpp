@@ -1,7 +1,8 @@
 // Overlap maps of the Vulkan sweep (shaders/sweep_map.comp): one test decided for every offset of
-// an angle at once from pairs of slice runs, in passes over the z slices, coarse to fine, and only
-// where poses are in play.
+// an angle at once from pairs of slice runs, in passes over the z slices and rows, coarse to fine,
+// and only where poses are in play.
 #include <algorithm>
+#include <bit>
 #include <cstring>
 #include <limits>
 #include <optional>
@@ -14,31 +15,32 @@ namespace amhv::gpu::sweep_detail {
 
 namespace {
 
-// The overlap-map pass of z slice `z` out of `passes`: coarse to fine, slices whose index has
-// more trailing zeros go first. With 5 passes: every 16th slice, then the slices halfway between
-// them (as many again), then an eighth, a quarter and the remaining half of all slices. Each pass
-// spans the whole height, so early passes find most overlaps with few pairs.
-int pass_of(int z, int passes) {
+// The overlap-map pass of the runs at z slice `z` and row `y` out of `passes`: coarse to fine in
+// both, cells whose z and y have more trailing zeros go first. With 5 passes: the cells where z
+// and y are both multiples of 16, then of 8, 4, 2, and the rest. Each pass spans the whole volume,
+// so early passes find most overlaps with few pairs: a pose in contact usually overlaps over
+// several slices and rows, and one cell of them settles it. (Over z alone, a part a few slices
+// thick, such as a sword held level, put nearly all its pairs in one pass.)
+int pass_of(int z, int y, int passes) {
     const int last = passes - 1;
-    for (int p = 0; p < last; ++p)
-        if (z % (1 << (last - p)) == 0) return p;
-    return last;
+    return last - std::min({std::countr_zero(std::uint32_t(z)), std::countr_zero(std::uint32_t(y)), last});
 }
 
-// Counts of the poses in play over rows rows[0] .. rows[1] (2D prefix sums of `open`, one row of
-// `width` poses per j), so that a box of offsets is tested for poses in play in constant time.
-void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, std::array<std::int32_t, 2> rows, int width, int height) {
+// Counts of the poses in play in the box `rows` (2D prefix sums of `open`, one row of `width` poses
+// per j), so that a box of offsets within it is tested for poses in play in constant time. Only
+// the box's prefix rows and columns are filled: every query is clamped to the box.
+void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, const Band& rows, int width, int height) {
     const std::size_t stride = std::size_t(width) + 1;
-    // Only the rows in play are ever queried: prefix rows rows[0] .. rows[1] + 1.
     pruner.prefix.resize(stride * (std::size_t(height) + 1));
-    std::fill_n(pruner.prefix.begin() + std::ptrdiff_t(std::size_t(rows[0]) * stride), stride, 0u);
+    const int i_first = rows[2], i_last = rows[3];
+    std::fill_n(pruner.prefix.begin() + std::ptrdiff_t(std::size_t(rows[0]) * stride + std::size_t(i_first)), i_last - i_first + 2, 0u);
     for (int j = rows[0]; j <= rows[1]; ++j) {
         const std::uint8_t* row_open = open + std::size_t(j) * std::size_t(width);
         const std::uint32_t* above = pruner.prefix.data() + std::size_t(j) * stride;
         std::uint32_t* below = pruner.prefix.data() + (std::size_t(j) + 1) * stride;
         std::uint32_t row_count = 0;
-        below[0] = 0;
-        for (int i = 0; i < width; ++i) {
+        below[i_first] = 0;
+        for (int i = i_first; i <= i_last; ++i) {
             row_count += row_open[i];
             below[i + 1] = above[i + 1] + row_count;
         }
@@ -47,13 +49,13 @@ void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, std::ar
 
 }  // namespace
 
-// Cuts one angle's pulled runs for a map test (sorted by key), cut to the columns that can reach
-// the rows in play. Returns the longest run.
-int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows,
-                              std::vector<SliceRun>& out) const {
-    if (rows[0] > rows[1] || test.runs.runs.empty()) return 0;
-    const auto clip = pulled_clip(*test.fixed, range_.i_first, range_.i_last, range_.j_first + rows[0], range_.j_first + rows[1]);
-    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clip, out);
+// Cuts one angle's pulled runs for a map test (sorted by key), each slot's cut to the columns that
+// can reach that slot of the fixed volume from the box of the poses in play. Returns the longest run.
+int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, std::vector<SliceRun>& out) const {
+    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return 0;
+    const SlotClips clips = pulled_clips(*test.fixed, test.slots, range_.i_first + rows[2], range_.i_first + rows[3],
+                                         range_.j_first + rows[0], range_.j_first + rows[1]);
+    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out);
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -64,8 +66,8 @@ int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch
 // read of it (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in
 // play). A box test (2D prefix sums of the poses in play) first drops most runs cheaply.
 // Returns the pairs of runs the kernel will visit.
-std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows,
-                                          const std::vector<SliceRun>& runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
+std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, std::span<const SliceRun> runs,
+                                          const std::uint8_t* open, std::vector<PulledRun>& out) const {
     std::uint64_t pairs = 0;
     if (rows[0] > rows[1] || runs.empty()) return pairs;
     const std::size_t stride = std::size_t(width_) + 1;
@@ -84,21 +86,21 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
         int j0 = std::max(rows[0], box[2] - run.y - range_.j_first), j1 = std::min(rows[1], box[3] - run.y - range_.j_first);
         if (j0 > j1) continue;
         if (open) {
-            const int i0 = std::max(0, box[0] - run.x_last - range_.i_first), i1 = std::min(width_ - 1, box[1] - run.x_first - range_.i_first);
+            const int i0 = std::max(rows[2], box[0] - run.x_last - range_.i_first), i1 = std::min(rows[3], box[1] - run.x_first - range_.i_first);
             if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
             // The first and last rows where a pose in play lies within reach of the fixed row
             // at the other end: its runs' hull, moved by this run.
             const auto* hulls = test.runs.row_hulls.data() + test.runs.row_hull_first[std::size_t(fixed_key)];
-            int reach_first = j1 + 1, reach_last = j0 - 1;
-            for (int j = j0; j <= j1; ++j) {
+            const auto reaches = [&](int j) {
                 const auto& hull = hulls[run.y + range_.j_first + j - box[2]];
-                if (hull[0] > hull[1]) continue;
-                const int h0 = std::max(0, hull[0] - run.x_last - range_.i_first), h1 = std::min(width_ - 1, hull[1] - run.x_first - range_.i_first);
-                if (h0 > h1 || in_play(h0, h1, j, j) == 0) continue;
-                reach_first = std::min(reach_first, j), reach_last = j;
-            }
-            if (reach_first > reach_last) continue;
-            j0 = reach_first, j1 = reach_last;
+                if (hull[0] > hull[1]) return false;
+                const int h0 = std::max(rows[2], hull[0] - run.x_last - range_.i_first), h1 = std::min(rows[3], hull[1] - run.x_first - range_.i_first);
+                return h0 <= h1 && in_play(h0, h1, j, j) != 0;
+            };
+            // Only the band's ends matter: scan in from both sides.
+            while (j0 <= j1 && !reaches(j0)) ++j0;
+            if (j0 > j1) continue;
+            while (!reaches(j1)) --j1;
         }
         const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
         const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
@@ -111,38 +113,35 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
     return pairs;
 }
 
-// Computes the map on the rows `rows[a]` of each angle a of the batch and, where `candidates` is
+// Computes the map on the box `rows[a]` of each angle a of the batch and, where `candidates` is
 // given (per pose of the batch), exactly only on those poses. The map goes in passes over the z
-// slices, coarse to fine (pass_of): a pose that a pass decides (an overlap found) leaves play, so
-// later passes skip the runs that reach only decided poses. For contact a sixteenth of the slices
-// finds most overlaps, and the rest of the runs reach little that is new.
+// slices and rows, coarse to fine (pass_of): a pose that a pass decides (an overlap found) leaves
+// play, so later passes skip the runs that reach only decided poses. For contact the coarse cells
+// find most overlaps, and the rest of the runs reach little that is new.
 std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
                                             const std::vector<std::uint8_t>* candidates) {
     // Pulled runs' x is packed in 16 bits relative to pulled_x0.
     const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width_;
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
-    const int maps = test.maps_per_angle();
     // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
     const int passes = test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
-    std::vector<std::uint8_t> open;
+    std::vector<std::uint8_t>& open = open_scratch_;
     if (candidates) open = *candidates;
-    Rows open_rows = rows;  // per angle: the rows j with poses in play
+    else open.clear();
+    Rows open_rows = rows;  // per angle: the box of the poses in play
     // Host work per angle, on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
-    // Per angle and pass: the runs of the pass's z slices (pass_of), in key order.
-    std::vector<std::vector<std::vector<SliceRun>>> slice_runs_of(static_cast<std::size_t>(batch_angles));
+    if (angle_scratch_.size() < std::size_t(batch_angles)) angle_scratch_.resize(std::size_t(batch_angles));
     std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
     for_each_angle([&](int a) {
-        auto& by_pass = slice_runs_of[std::size_t(a)];
-        by_pass.resize(std::size_t(passes));
-        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], by_pass[0]);
-        if (passes == 1) return;
-        std::vector<SliceRun> all = std::move(by_pass[0]);
-        by_pass[0].clear();
-        for (const SliceRun& run : all) by_pass[std::size_t(pass_of(run.key % test.runs.zbits, passes))].push_back(run);
+        AngleScratch& scratch = angle_scratch_[std::size_t(a)];
+        scratch.cut.clear();
+        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], scratch.cut);
+        split_by_pass(scratch, passes, test.runs.zbits);
     });
     const int longest = *std::max_element(longest_of.begin(), longest_of.end());
+    const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     ensure_host_capacity(tools_.context, map_words_, map_bytes);
     sequence_.fill(*map_words_, map_bytes, 0u);
@@ -150,35 +149,58 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     sequence_.barrier();
     ++tools_.stats.maps_per_stage[std::size_t(stage)];
     for (int pass = 0; pass < passes; ++pass) {
-        // Each angle's runs come sorted by key and keys grow with the angle, so joining them in
-        // angle order sorts the batch: neighbouring invocations with the same key walk the same
-        // fixed runs (uniform loops and loads across a subgroup).
-        std::vector<std::vector<PulledRun>> angle_runs_of(static_cast<std::size_t>(batch_angles));
         std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
         for_each_angle([&](int a) {
             thread_local PulledPruner pruner;
-            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], slice_runs_of[std::size_t(a)][std::size_t(pass)],
-                                                         open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, angle_runs_of[std::size_t(a)]);
+            AngleScratch& scratch = angle_scratch_[std::size_t(a)];
+            scratch.pruned.clear();
+            const std::span<const SliceRun> runs(scratch.by_pass.data() + scratch.pass_first[std::size_t(pass)],
+                                                 scratch.pass_first[std::size_t(pass) + 1] - scratch.pass_first[std::size_t(pass)]);
+            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], runs,
+                                                         open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, scratch.pruned);
         });
-        std::vector<PulledRun> runs;
-        std::size_t total_runs = 0;
+            std::size_t total_runs = 0;
         for (int a = 0; a < batch_angles; ++a) {
-            total_runs += angle_runs_of[std::size_t(a)].size();
+            total_runs += angle_scratch_[std::size_t(a)].pruned.size();
             tools_.stats.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
         }
-        runs.reserve(total_runs);
-        for (const auto& angle_runs : angle_runs_of) runs.insert(runs.end(), angle_runs.begin(), angle_runs.end());
-        tools_.stats.pulled_runs_per_stage[std::size_t(stage)] += runs.size();
-        dispatch_map_pass(test, std::move(runs), longest);
-        if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
-    }
+        tools_.stats.pulled_runs_per_stage[std::size_t(stage)] += total_runs;
+        // Each angle's runs come sorted by key and keys grow with the angle, so joining them in
+        // angle order sorts the batch: neighbouring invocations with the same key walk the same
+        // fixed runs (uniform loops and loads across a subgroup).
+        if (total_runs > 0) {
+            ensure_host_capacity(tools_.context, pulled_, total_runs * sizeof(PulledRun));
+            PulledRun* staged = pulled_->mapped<PulledRun>().data();
+            for (int a = 0; a < batch_angles; ++a) {
+                const auto& pruned = angle_scratch_[std::size_t(a)].pruned;
+                staged = std::copy(pruned.begin(), pruned.end(), staged);
+            }
+        }
+            dispatch_map_pass(test, total_runs, longest);
+            if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
+        }
     return read_map(test, batch_angles);
 }
 
-// ORs one pass's pulled runs into the maps and waits for them.
-void SweepRun::dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int longest) {
+// Orders an angle's cut runs by map pass (pass_of), keeping key order within each pass.
+void SweepRun::split_by_pass(AngleScratch& scratch, int passes, int zbits) {
+    scratch.pass_first.assign(std::size_t(passes) + 1, 0);
+    if (passes == 1) {
+        std::swap(scratch.by_pass, scratch.cut);
+        scratch.pass_first[1] = scratch.by_pass.size();
+        return;
+    }
+    for (const SliceRun& run : scratch.cut) ++scratch.pass_first[std::size_t(pass_of(run.key % zbits, run.y, passes)) + 1];
+    for (int p = 0; p < passes; ++p) scratch.pass_first[std::size_t(p) + 1] += scratch.pass_first[std::size_t(p)];
+    scratch.by_pass.resize(scratch.cut.size());
+    std::vector<std::size_t> next(scratch.pass_first.begin(), scratch.pass_first.end() - 1);
+    for (const SliceRun& run : scratch.cut) scratch.by_pass[next[std::size_t(pass_of(run.key % zbits, run.y, passes))]++] = run;
+}
+
+// ORs one pass's pulled runs (staged in `pulled_`) into the maps and waits for them.
+void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longest) {
     std::optional<BoundBuffers> set;  // lives until the submit below has finished
-    if (!runs.empty()) {
+    if (run_count > 0) {
         const std::uint32_t budget = tools_.options.loop_budget;
         // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
         const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
@@ -186,11 +208,9 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int
             fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
         const int runs_per_chunk = int((budget - search) / per_run);
         const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
-        const std::uint64_t items = std::uint64_t(runs.size()) * std::uint64_t(chunks);
+        const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-        ensure_host_capacity(tools_.context, pulled_, runs.size() * sizeof(PulledRun));
-        std::memcpy(pulled_->mapped<std::uint8_t>().data(), runs.data(), runs.size() * sizeof(PulledRun));
         set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled_.get(), map_words_.get()}));
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
@@ -205,23 +225,35 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int
     ++tools_.stats.submits;
 }
 
-// After a pass: poses with an overlap found are decided (one map per angle here); the rows in
-// play shrink to those with poses still open.
+// After a pass: poses with an overlap found are decided (one map per angle here); the box in play
+// shrinks to the poses still open.
 void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
     const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
     if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
     for (int a = 0; a < batch_angles; ++a) {
-        auto& band = open_rows[std::size_t(a)];
-        std::array<std::int32_t, 2> still{height_, -1};
+        Band& band = open_rows[std::size_t(a)];
+        Band still{height_, -1, width_, -1};
         for (int j = band[0]; j <= band[1]; ++j) {
             std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
             const std::uint32_t* row = words + (std::size_t(a) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
-            bool any = false;
-            for (int i = 0; i < width_; ++i) {
-                row_open[i] &= std::uint8_t(~(row[i >> 5] >> (i & 31)) & 1u);
-                any |= row_open[i] != 0;
+            // Word by word (whole words in a loop the compiler vectorises); outside the band the
+            // row holds no pose in play, so clearing there changes nothing.
+            for (int w = band[2] >> 5; w <= band[3] >> 5; ++w) {
+                const std::uint32_t missed = ~row[w];
+                std::uint8_t* word_open = row_open + w * 32;
+                if (w * 32 + 32 <= width_) {
+                    for (int b = 0; b < 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
+                } else {
+                    for (int b = 0; b < width_ - w * 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
+                }
             }
-            if (any) still = {std::min(still[0], j), j};
+            const std::uint8_t *begin = row_open + band[2], *end = row_open + band[3] + 1;
+            const std::uint8_t* first = std::find_if(begin, end, [](std::uint8_t o) { return o != 0; });
+            if (first == end) continue;
+            const std::uint8_t* last = end - 1;
+            while (*last == 0) --last;
+            widen(still, j, std::int32_t(first - row_open));
+            widen(still, j, std::int32_t(last - row_open));
         }
         band = still;
     }

@@ -14,6 +14,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "src/gpu/compute.hpp"
@@ -116,7 +117,15 @@ struct Blocks {
 };
 
 using Pose = std::array<std::int32_t, 4>;  // angle, i, j, unused
-using Rows = std::vector<std::array<std::int32_t, 2>>;  // per angle: first and last row j - j_first (first > last: none)
+// Per angle: the box of the poses in play, first and last row j - j_first, then first and last
+// column i - i_first (first > last: none).
+using Band = std::array<std::int32_t, 4>;
+using Rows = std::vector<Band>;
+
+// Grows a band to hold the pose at row j, column i.
+inline void widen(Band& band, std::int32_t j, std::int32_t i) {
+    band = {std::min(band[0], j), std::max(band[1], j), std::min(band[2], i), std::max(band[3], i)};
+}
 using Meets = std::vector<std::vector<std::uint8_t>>;   // per test and pose: whether the pose meets the test's criterion
 
 // Whether pose p meets every test.
@@ -127,6 +136,14 @@ inline bool passes_all(const Meets& meets, std::size_t p) {
 // What a block pre-test proves for every pose of its block: a pooled "no overlap" makes an
 // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
 enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
+
+// One angle's pulled runs in a map test, kept between batches so their buffers are reused.
+struct AngleScratch {
+    std::vector<SliceRun> cut;                // as cut, in key order
+    std::vector<SliceRun> by_pass;            // ordered by map pass, key order within a pass
+    std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
+    std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
+};
 
 // Scratch of the pulled-run pruning, reused by one thread.
 struct PulledPruner {
@@ -187,13 +204,14 @@ private:
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
-    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, std::array<std::int32_t, 2> rows, std::vector<SliceRun>& out) const;
-    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, std::array<std::int32_t, 2> rows, const std::vector<SliceRun>& runs,
+    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, std::vector<SliceRun>& out) const;
+    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, std::span<const SliceRun> runs,
                                     const std::uint8_t* open, std::vector<PulledRun>& out) const;
+    static void split_by_pass(AngleScratch& scratch, int passes, int zbits);
     // Decides `test` for every pose of the batch (implicit order) with an overlap map.
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
                                       const std::vector<std::uint8_t>* candidates);
-    void dispatch_map_pass(MapTest& test, std::vector<PulledRun> runs, int longest);
+    void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest);
     void close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const;
     std::vector<std::uint8_t> read_map(const MapTest& test, int batch_angles) const;
     bool maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
@@ -233,6 +251,9 @@ private:
     std::chrono::steady_clock::time_point clock_;
     Sequence sequence_;
     std::unique_ptr<Buffer> flags_, poses_, pulled_, map_words_;
+    // Scratch of the overlap maps, reused batch after batch (fresh buffers cost page faults).
+    std::vector<AngleScratch> angle_scratch_;
+    std::vector<std::uint8_t> open_scratch_;
     Buffer no_poses_;
 };
 
