@@ -7,6 +7,10 @@
 //   build/tools/amhv_bench_growth SCENE SEGMENT VOXEL_M ANGLE_STEP_DEG
 //   build/tools/amhv_bench_growth --header
 //   build/tools/amhv_bench_growth --plot TABLE.csv OUT.png
+//
+// Per stage figures (seconds, poses, maps, pulled runs, run pairs, blocks, pose tests) go to stderr.
+// For trying the sweeper's settings: AMHV_MAP_PASSES and AMHV_POSE_TEST_PAIRS set
+// SweeperOptions::map_passes and ::pose_test_pairs.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -61,6 +65,7 @@ int measure(const std::string& scene_file, int segment, double voxel, double ste
     const double mhv = seconds_since(start);
     gpu::SweeperOptions options;
     if (const char* passes = std::getenv("AMHV_MAP_PASSES")) options.map_passes = std::atoi(passes);
+    if (const char* pairs = std::getenv("AMHV_POSE_TEST_PAIRS")) options.pose_test_pairs = std::atof(pairs);
     gpu::VulkanSweeper sweeper(context, options);
     start = std::chrono::steady_clock::now();
     const SweepResult result = sweeper.sweep(problem);

@@ -209,6 +209,9 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
                 back[i][std::size_t(d)][std::size_t(j)] = arg[std::size_t(j)];
             }
         }
+        // Only the back pointers of earlier segments are read again: at 5 mm the costs of every
+        // segment were a gigabyte beside the sweep's results.
+        if (i > 0) std::vector<std::vector<double>>().swap(cost[i - 1]);
     }
     // The best final state; ties go to the first rotation, then the first solution in (theta, y, x) order.
     ChainChoice choice;

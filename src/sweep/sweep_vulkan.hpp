@@ -27,10 +27,13 @@ struct SweeperOptions {
     // Contact and the interaction dictionary by overlap maps (shaders/sweep_map.comp): every offset
     // of an angle at once, from pairs of slice runs, instead of pose by pose. Off: pose by pose.
     bool maps = true;
-    // Cost model for fidelity, visibility and the labelled dictionary tests: one pose test costs
-    // about as much as this many run pairs of a map (lavapipe, 2 cores: 5-230 us per pose test,
-    // about 6 ns per pair). 0: always pose by pose; very large: always maps.
-    double pose_test_pairs = 8000;
+    // Cost model for fidelity, visibility and the labelled dictionary tests: a pose test of
+    // 160,000 loop steps costs about as much as this many run pairs of a map. A pose test's steps
+    // are estimated from its volumes (so the price grows with the resolution) and a map's pairs
+    // from one angle with every pose in play (its passes then visit several times fewer);
+    // calibrated on lavapipe, 2 cores, with the paper scene at 10 mm and 5 mm, where no batch is
+    // cheaper pose by pose. 0: always pose by pose; very large: always maps.
+    double pose_test_pairs = 50000;
     // Bytes of overlap maps one batch of angles may hold.
     std::uint64_t max_map_bytes = std::uint64_t(64) << 20;
     // Passes over the z slices and rows of an overlap map, coarse to fine (with 5: the runs whose

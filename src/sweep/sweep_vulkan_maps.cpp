@@ -299,7 +299,8 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
 }
 
 // The cost model: a stage's optional maps pay off when its poses, tested one by one, would cost
-// more than the run pairs of its maps (estimated from one angle of the batch).
+// more than the run pairs of its maps and the host's cutting of their runs (estimated from one
+// angle of the batch).
 bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
                             const std::vector<std::uint8_t>& candidates) const {
     if (optional_maps_[std::size_t(stage)].empty() || pose_count == 0) return false;
@@ -307,16 +308,19 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, 
     int sample = 0, angles_in_play = 0;
     for (int a = batch_angles - 1; a >= 0; --a)
         if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
-    std::uint64_t pairs = 0;
+    std::uint64_t pairs = 0, cut = 0;
     PulledPruner pruner;
     for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
         std::vector<SliceRun> runs;
         std::vector<PulledRun> pruned;
         cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], runs);
+        cut += runs.size();
         pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
     }
-    const double pose_cost = double(pose_count) * tools_.options.pose_test_pairs;
-    return pose_cost > double(pairs) * double(angles_in_play);
+    // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the
+    // option prices one of kPoseTestIterations loop steps.
+    const double pose_cost = double(pose_count) * tools_.options.pose_test_pairs * pose_iterations_[std::size_t(stage)] / kPoseTestIterations;
+    return pose_cost > double(pairs + cut * kCutPairs) * double(angles_in_play);
 }
 
 }  // namespace amhv::gpu::sweep_detail

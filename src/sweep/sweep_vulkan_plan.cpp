@@ -37,6 +37,8 @@ SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, int level)
     z_ = z_frame_covering(grids_a, grids_b, level);
     z_b_ = raised_frame(z_, level);
     plan_stages();
+    for (int stage = 0; stage < 4; ++stage)
+        for (const OverlapTest& test : stages_[std::size_t(stage)]) pose_iterations_[std::size_t(stage)] += pose_test_iterations(test);
     if (tools_.options.maps) plan_maps();
     root_a_ = problem.root_a_q();
     root_b_ = problem.root_b_q();
@@ -45,6 +47,15 @@ SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, int level)
     upload_angle_tables();
     blocks_x_ = (width_ + block_ - 1) / block_;
     blocks_y_ = (height_ + block_ - 1) / block_;
+}
+
+double pose_test_iterations(const OverlapTest& test) {
+    const ColumnVolume& fixed = test.fixed->columns;
+    const ColumnVolume& moving = test.moving->columns;
+    double fixed_columns = 0;
+    for (const auto& row : fixed.rows) fixed_columns += row[0] <= row[1] ? row[1] - row[0] + 1 : 0;
+    const double moving_area = moving.empty() ? 0.0 : 2.0 * (moving.x_last - moving.x_first + 1) * (moving.y_last - moving.y_first + 1);
+    return std::min(fixed_columns, moving_area) * test.words() * std::max(1, test.frames);
 }
 
 GpuVolume* SweepRun::add(ColumnVolume columns) {

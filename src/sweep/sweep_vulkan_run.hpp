@@ -133,6 +133,16 @@ inline bool passes_all(const Meets& meets, std::size_t p) {
     return std::all_of(meets.begin(), meets.end(), [p](const auto& m) { return m[p] != 0; });
 }
 
+// The cost model's scale (SweeperOptions::pose_test_pairs prices a pose test of this many loop
+// steps; lavapipe, measured on the paper scene at 10 mm and 5 mm), and what cutting one pulled
+// run on the host costs in run pairs.
+constexpr double kPoseTestIterations = 160000;
+constexpr std::uint64_t kCutPairs = 4;
+
+// Loop steps of one pose test of `test` (estimated): the fixed columns it can visit, those under
+// the moving volume's box turned any way, times the words and frames each column test reads.
+double pose_test_iterations(const OverlapTest& test);
+
 // What a block pre-test proves for every pose of its block: a pooled "no overlap" makes an
 // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
 enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
@@ -246,6 +256,7 @@ private:
     std::map<const GpuVolume*, GpuVolume*> pooled_;
 
     int angles_per_batch_ = 1, row_words_ = 0;
+    std::array<double, 4> pose_iterations_{};  // per stage: pose_test_iterations of its tests, summed
     int blocks_x_ = 0, blocks_y_ = 0;
     SweepResult result_;
     std::chrono::steady_clock::time_point clock_;
