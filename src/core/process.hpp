@@ -10,4 +10,8 @@ namespace amhv {
 // from the start, and freed memory stays in the process for the next batch.
 void keep_freed_memory();
 
+// Gives the memory kept that way back to the kernel: between key segments, whose sizes differ, and
+// before the stages after the sweep, so that it does not add to their peak.
+void release_freed_memory();
+
 }  // namespace amhv

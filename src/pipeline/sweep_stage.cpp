@@ -9,6 +9,7 @@
 
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
+#include "src/core/process.hpp"
 #include "src/results/appearance_files.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/feasibility_maps.hpp"
@@ -141,6 +142,7 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
     SweepStage stage;
     for (const KeySegment& segment : scene.segments) {
         if (options.only_segment && segment.index != options.only_segment) continue;
+        release_freed_memory();  // the segment before's volumes and sweep
         results::Json timings;
         auto t0 = std::chrono::steady_clock::now();
         SegmentBuild build = build_segment(scene, segment, a, b, voxeliser);
@@ -157,6 +159,7 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
             timings["sweep_stages"] = {{"contact", stages[0]}, {"dictionary", stages[1]}, {"fidelity", stages[2]}, {"visibility", stages[3]}};
         finish_segment(scene, segment, problem, result, out, options, std::move(timings), stage);
     }
+    release_freed_memory();
     return stage;
 }
 
