@@ -25,6 +25,7 @@
 #include <cairo.h>
 #include <fmt/format.h>
 
+#include "src/core/clock.hpp"
 #include "src/core/error.hpp"
 #include "src/core/process.hpp"
 #include "src/scene/segment.hpp"
@@ -46,10 +47,6 @@ double peak_mib() {
     while (std::getline(status, line))
         if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
     return 0;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 int measure(const std::string& scene_file, int segment, double voxel, double step) {
@@ -106,7 +103,21 @@ std::vector<Row> read_table(const std::string& file) {
         std::stringstream cut(line);
         for (std::string cell; std::getline(cut, cell, ',');) cells.push_back(cell);
         if (cells.size() != 15) fail(file, "line {}: {} cells, not 15", number, cells.size());
-        rows.push_back({std::stod(cells[0]), std::stod(cells[1]), std::stod(cells[5]), std::stod(cells[14])});
+        Row row{};
+        double* fields[] = {&row.voxel, &row.step, &row.sweep, &row.peak};
+        const std::size_t columns[] = {0, 1, 5, 14};
+        for (int f = 0; f < 4; ++f) {
+            std::size_t used = 0;
+            const std::string& cell = cells[columns[f]];
+            try {
+                *fields[f] = std::stod(cell, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used == 0 || used != cell.size() || !std::isfinite(*fields[f]) || *fields[f] <= 0)
+                fail(file, "line {}: cell {} is \"{}\", not a positive number", number, columns[f] + 1, cell);
+        }
+        rows.push_back(row);
     }
     if (rows.empty()) fail(file, "no rows");
     return rows;

@@ -7,13 +7,16 @@
 # Writes the scene with amhv_make_paper_scene into a temporary folder, runs amhv_bench_growth once
 # per sampling (voxel 20, 10, 7, 5 mm x angle step 4, 2, 1 deg; one process each, so each peak is
 # its own), and writes OUT_DIR/growth.csv and OUT_DIR/growth.png (default OUT_DIR: the current
-# folder; the files are replaced, nothing else there is touched).
+# folder; it refuses to start when either file is already there, and touches nothing else).
 set -euo pipefail
 build="${1:-build}"
 segment="${2:-1}"
 out="${3:-.}"
 voxels=(${AMHV_GROWTH_VOXELS:-0.02 0.01 0.007 0.005})
 steps=(${AMHV_GROWTH_STEPS:-4 2 1})
+for file in growth.csv growth.png; do
+  if [ -e "$out/$file" ]; then echo "bench_growth: $out/$file is already there; move it or choose another folder" >&2; exit 1; fi
+done
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$out"

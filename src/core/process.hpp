@@ -1,5 +1,5 @@
 #pragma once
-// Process-wide settings every amhv program makes at start.
+// How every amhv program handles its freed memory: kept at start, given back at named points.
 
 namespace amhv {
 

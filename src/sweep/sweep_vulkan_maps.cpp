@@ -159,7 +159,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], runs,
                                                          open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, scratch.pruned);
         });
-            std::size_t total_runs = 0;
+        std::size_t total_runs = 0;
         for (int a = 0; a < batch_angles; ++a) {
             total_runs += angle_scratch_[std::size_t(a)].pruned.size();
             tools_.stats.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
@@ -176,9 +176,9 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
                 staged = std::copy(pruned.begin(), pruned.end(), staged);
             }
         }
-            dispatch_map_pass(test, total_runs, longest);
-            if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
-        }
+        dispatch_map_pass(test, total_runs, longest);
+        if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
+    }
     return read_map(test, batch_angles);
 }
 
