@@ -4,8 +4,11 @@
 #include <filesystem>
 #include <iostream>
 
+#include <fmt/ranges.h>
+
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
+#include "src/pipeline/party_stage.hpp"
 #include "src/pipeline/sweep_stage.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
@@ -22,17 +25,37 @@ struct EditArguments {
     pipeline::EditRunOptions options;
 };
 
+// What a multi-party edit placed and wrote.
+void report_party(const pipeline::PartyEdit& party, const std::filesystem::path& target, const pipeline::EditRunOptions& options) {
+    for (const pipeline::PartyStage& stage : party.stages)
+        for (const KeyEdit& k : stage.edit.keys)
+            std::cout << fmt::format("key segment {}: {} against {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
+                                     stage.object, fmt::join(stage.against, "+"), k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y,
+                                     k.chosen.theta_deg, k.chosen.distance);
+    std::cout << fmt::format("wrote {}/: {} objects, {} output frames (transforms.json, frames.csv{}, result.json)\n", target.string(), party.names.size(),
+                             party.length(), options.frames ? ", frames/NNNN.ply" : "");
+}
+
 void run_edit(const EditArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     Scene scene = load_scene(args.scene);
     if (!args.body.empty())
         for (SceneObject* o : {&scene.a, &scene.b})
             if (!o->bvh.empty()) o->body = parse_body_kind(args.body, "--body");
+    if (!args.body.empty())
+        for (SceneObject& o : scene.objects)
+            if (!o.bvh.empty()) o.body = parse_body_kind(args.body, "--body");
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);
     if (!args.options.from_sweep.empty()) inputs.emplace_back(args.options.from_sweep);
     StagedOutput out(args.out, inputs);
+    if (scene.multi_party()) {
+        const pipeline::PartyEdit party = pipeline::edit_party_into(scene, backends, out.dir(), args.options, start);
+        out.commit();
+        report_party(party, out.target(), args.options);
+        return;
+    }
     const EditResult edit = pipeline::edit_scene_into(scene, backends, out.dir(), args.options, start);
     out.commit();
 

@@ -2,6 +2,9 @@
 #include <chrono>
 #include <iostream>
 
+#include <memory>
+#include <fmt/ranges.h>
+
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
 #include "src/pipeline/shard_stage.hpp"
@@ -27,10 +30,13 @@ struct SweepArguments {
 void run_check(const std::string& file) {
     Scene scene = load_scene(file);
     // The objects' takes and tracks too: a scene whose files are broken is not valid.
-    ObjectSource a(scene.a), b(scene.b);
+    std::vector<std::unique_ptr<ObjectSource>> sources;
+    for (const SceneObject& o : scene.objects) sources.push_back(std::make_unique<ObjectSource>(o));
     std::cout << resolved_toml(scene);
-    for (const ObjectSource* o : {&a, &b})
+    for (const auto& o : sources)
         if (!o->floor_note().empty()) std::cout << "# " << o->floor_note() << '\n';
+    if (scene.multi_party())
+        std::cout << fmt::format("# placement order: {} ({})\n", fmt::join(scene.order, ", "), scene.order_rule);
 }
 
 // `amhv sweep --shard K/N`: one shard's folder; the options that shape the files are merge's.

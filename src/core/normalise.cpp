@@ -24,4 +24,12 @@ NormalisedPair normalise_pair(int length_a, int length_b) {
     return pair;
 }
 
+NormalisedPair normalise_to_a(int length_a, int length_b) {
+    NormalisedPair pair;
+    pair.length = length_a;
+    pair.frames_a = resample_indices(length_a, length_a);
+    pair.frames_b = resample_indices(length_b, length_a);
+    return pair;
+}
+
 }  // namespace amhv

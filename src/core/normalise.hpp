@@ -15,5 +15,8 @@ struct NormalisedPair {
     std::vector<int> frames_b;
 };
 NormalisedPair normalise_pair(int length_a, int length_b);
+// A multi-party stage (docs/method.md section 11): the placed side keeps its timing, so the pair
+// takes A's length and B is resampled to it (stretched or shortened).
+NormalisedPair normalise_to_a(int length_a, int length_b);
 
 }  // namespace amhv

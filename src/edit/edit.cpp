@@ -286,6 +286,17 @@ PathReport optimise_transition(const TimelineSegment& seg, int segment_index, in
     return report;
 }
 
+// A fixed A through a transitional segment: every frame where the editor's placement puts it.
+void keep_in_place(const TimelineSegment& seg, double yaw, EditResult& r) {
+    for (int m = seg.first; m < seg.first + seg.length; ++m) {
+        ObjectFrameEdit& f = r.frames[0][std::size_t(m)];
+        f.edited_root = f.original_root;
+        f.edited_facing = f.original_facing;
+        f.yaw = yaw;
+        f.translation = f.original_root - rotate(yaw, f.root);
+    }
+}
+
 constexpr int kSeparationRounds = 12;
 
 // Frame numbers as "39-86, 127" for messages.
@@ -434,7 +445,8 @@ std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vec
     for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {  // transitional segments, each object on its own
         const TimelineSegment seg = r.timeline.segments[s];
         if (seg.key != 0 || seg.length == 0) continue;
-        for (int o = 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, c.weights, r));
+        if (options.fixed_a) keep_in_place(seg, weights.yaw_a, r);
+        for (int o = options.fixed_a ? 1 : 0; o < 2; ++o) r.paths.push_back(optimise_transition(seg, int(s), o, c.weights, r));
     }
     r.path_seconds += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();

@@ -89,6 +89,9 @@ struct TransitionCheck {
 struct EditOptions {
     bool allow_empty = false;  // keep B's captured placement where a group is empty
     bool allow_transition_overlap = false;  // check and report, but keep the paper's paths
+    // A multi-party stage (docs/method.md section 11): A (the objects placed so far) keeps every frame
+    // where it is; its path is not bent (the DP's w_A should be infinite and its rotations {0}).
+    bool fixed_a = false;
 };
 
 struct EditResult {

@@ -109,6 +109,20 @@ void draw_png(const fs::path& path, int w, int h, const std::vector<Shape>& shap
 
 }  // namespace
 
+nlohmann::ordered_json frame_transform_json(const ObjectFrameEdit& e) {
+    const double c = std::cos(e.yaw), s = std::sin(e.yaw);
+    return {
+        {"source", e.source},
+        {"x", e.translation.x()},
+        {"y", e.translation.y()},
+        {"z", e.lift},
+        {"yaw_deg", angles::wrap_degrees(angles::degrees(e.yaw))},
+        {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, e.lift}, {0.0, 0.0, 0.0, 1.0}}},
+        {"root", {e.edited_root.x(), e.edited_root.y()}},
+        {"facing_deg", angles::wrap_degrees(angles::degrees(e.edited_facing))},
+    };
+}
+
 void write_transforms_json(const fs::path& path, const Scene& scene, const EditResult& edit) {
     nlohmann::ordered_json json;
     json["program"] = std::string("amhv ") + AMHV_VERSION;
@@ -131,20 +145,7 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
         nlohmann::ordered_json f;
         f["frame"] = k;
         f["segment"] = segment_name(edit.timeline.segments[std::size_t(edit.timeline.segment[std::size_t(k)])], edit.timeline.segment[std::size_t(k)]);
-        for (int o = 0; o < 2; ++o) {
-            const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
-            const double c = std::cos(e.yaw), s = std::sin(e.yaw);
-            f[o == 0 ? "A" : "B"] = {
-                {"source", e.source},
-                {"x", e.translation.x()},
-                {"y", e.translation.y()},
-                {"z", e.lift},
-                {"yaw_deg", angles::wrap_degrees(angles::degrees(e.yaw))},
-                {"matrix", {{c, -s, 0.0, e.translation.x()}, {s, c, 0.0, e.translation.y()}, {0.0, 0.0, 1.0, e.lift}, {0.0, 0.0, 0.0, 1.0}}},
-                {"root", {e.edited_root.x(), e.edited_root.y()}},
-                {"facing_deg", angles::wrap_degrees(angles::degrees(e.edited_facing))},
-            };
-        }
+        for (int o = 0; o < 2; ++o) f[o == 0 ? "A" : "B"] = frame_transform_json(edit.frames[std::size_t(o)][std::size_t(k)]);
         frames.push_back(f);
     }
     json["output"] = frames;

@@ -5,11 +5,16 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "src/edit/edit.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 
 namespace amhv {
+
+// One object's transform at one output frame, as transforms.json gives it.
+nlohmann::ordered_json frame_transform_json(const ObjectFrameEdit& e);
 
 // transforms.json: for every output frame and object, the source frame and capture -> scene as
 // x, y, yaw and as a row-major 4x4 matrix.

@@ -1,9 +1,12 @@
 #include "src/scene/scene.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <set>
 #include <sstream>
 
+#include <fmt/ranges.h>
 #include <toml++/toml.h>
 
 #include "src/core/error.hpp"
@@ -121,6 +124,16 @@ public:
                 fail(fmt::format("{}:{}: {}", file_.string(), node.source().begin.line, key_path(std::string(key.str()))), "unknown key");
     }
     const fs::path& file() const { return file_; }
+    // The table's keys in the order the file gives them (toml++ keeps them sorted).
+    std::vector<std::string> keys_in_file_order() const {
+        std::vector<std::pair<std::pair<int, int>, std::string>> keyed;
+        for (const auto& [key, node] : table_)
+            keyed.push_back({{int(node.source().begin.line), int(node.source().begin.column)}, std::string(key.str())});
+        std::sort(keyed.begin(), keyed.end());
+        std::vector<std::string> out;
+        for (auto& k : keyed) out.push_back(std::move(k.second));
+        return out;
+    }
 
 private:
     static std::string type_name(const toml::node& node) {
@@ -164,6 +177,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     TableReader t = objects.table(name, true);
     SceneObject o;
     o.name = name;
+    o.anchor = t.boolean("anchor").value_or(false);
     auto meshes = t.string("meshes");
     auto bvh = t.string("bvh");
     if (meshes.has_value() == bvh.has_value()) t.error("meshes", nullptr, "give exactly one of 'meshes' (a mesh sequence) and 'bvh'");
@@ -268,10 +282,11 @@ PartSpec read_part(TableReader& parent, const std::string& key, const SceneObjec
     return part;
 }
 
-void read_parts(TableReader& segment, const std::string& key, const Scene& scene, PartSpec& a, PartSpec& b, PartSpec fallback) {
+void read_parts(TableReader& segment, const std::string& key, const Scene& scene, const std::array<std::string, 2>& pair, PartSpec& a,
+                PartSpec& b, PartSpec fallback) {
     TableReader t = segment.table(key);
-    a = read_part(t, "A", scene.a, fallback, key == "fidelity");
-    b = read_part(t, "B", scene.b, fallback, key == "fidelity");
+    a = read_part(t, pair[0], scene.object(pair[0]), fallback, key == "fidelity");
+    b = read_part(t, pair[1], scene.object(pair[1]), fallback, key == "fidelity");
     t.finish();
 }
 
@@ -333,6 +348,195 @@ void read_intent(TableReader& segment, Intent& intent) {
     limits.finish();
 }
 
+
+constexpr int kMaxObjects = 16;
+constexpr int kMaxSegments = 1000;
+
+// Object names become file names (transforms.json keys, frames' comments): letters, digits, _ and -.
+bool valid_object_name(const std::string& name) {
+    if (name.empty() || name.size() > 32) return false;
+    return std::all_of(name.begin(), name.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; });
+}
+
+// [objects.NAME], two or more, in file order; one of them the anchor (anchor = true, else the first).
+void read_objects(TableReader& top, Scene& scene) {
+    TableReader objects = top.table("objects", true);
+    const std::vector<std::string> names = objects.keys_in_file_order();
+    if (names.size() < 2 || names.size() > std::size_t(kMaxObjects))
+        top.error("objects", top.get("objects"), "a scene needs 2 to {} objects ([objects.A], [objects.B], ...), not {}", kMaxObjects, names.size());
+    for (const std::string& name : names) {
+        if (!valid_object_name(name))
+            objects.error(name, objects.get(name), "'{}' is not an object name: use 1 to 32 letters, digits, '_' or '-'", name);
+        scene.objects.push_back(read_object(objects, name));
+    }
+    objects.finish();
+    const auto anchors = std::count_if(scene.objects.begin(), scene.objects.end(), [](const SceneObject& o) { return o.anchor; });
+    if (anchors > 1) top.error("objects", top.get("objects"), "{} objects say anchor = true; one object stays fixed", anchors);
+    if (anchors == 0) scene.objects.front().anchor = true;
+}
+
+// A key segment's pair: given as pair = ["A", "C"], or in a two-object scene [anchor, other].
+std::array<std::string, 2> read_pair(TableReader& t, const toml::node& segment, const Scene& scene) {
+    if (!t.has("pair")) {
+        if (scene.multi_party())
+            t.error("pair", &segment, "is missing: a scene of {} objects names each key segment's pair, e.g. pair = [\"{}\", \"{}\"]", scene.objects.size(),
+                    scene.objects[0].name, scene.objects[1].name);
+        const SceneObject& anchor = scene.objects[0].anchor ? scene.objects[0] : scene.objects[1];
+        const SceneObject& other = &anchor == &scene.objects[0] ? scene.objects[1] : scene.objects[0];
+        return {anchor.name, other.name};
+    }
+    const std::vector<std::string> names = t.strings("pair");
+    if (names.size() != 2 || names[0] == names[1]) t.error("pair", t.get("pair"), "must name two different objects");
+    for (const std::string& name : names)
+        if (std::none_of(scene.objects.begin(), scene.objects.end(), [&](const SceneObject& o) { return o.name == name; }))
+            t.error("pair", t.get("pair"), "names '{}', which is not one of the scene's objects", name);
+    return {names[0], names[1]};
+}
+
+// Each object's key segments must be in order in its own frames and must not overlap.
+void check_segment_order(TableReader& t, const Scene& scene, const KeySegment& k) {
+    for (int side = 0; side < 2; ++side) {
+        const std::string& name = k.pair[std::size_t(side)];
+        const char* key = side == 0 ? "a" : "b";
+        const std::array<int, 2>& range = side == 0 ? k.a : k.b;
+        for (auto prev = scene.segments.rbegin(); prev != scene.segments.rend(); ++prev) {
+            if (prev->pair[0] != name && prev->pair[1] != name) continue;
+            const std::array<int, 2>& before = prev->pair[0] == name ? prev->a : prev->b;
+            if (range[0] <= before[1])
+                t.error(key, t.get(key), "overlaps or comes before key segment {}: key segments must be in order and must not overlap", prev->index);
+            break;
+        }
+    }
+}
+
+void read_visibility(TableReader& t, VisibilitySpec& v) {
+    TableReader vis = t.table("visibility");
+    v.enabled = vis.boolean("enabled").value_or(false);
+    v.half_angle_deg = vis.number("half_angle_deg", 0, 90, false).value_or(30);
+    v.range = vis.number("range", 0, 1000).value_or(0);
+    v.per_frame = vis.boolean("per_frame").value_or(false);
+    if (auto f = vis.number("frames", 0, 1, false)) {
+        if (!v.per_frame) vis.error("frames", vis.get("frames"), "applies to per-frame visibility only; add per_frame = true");
+        v.frames = *f;
+    }
+    if (v.per_frame && !v.enabled) vis.error("per_frame", vis.get("per_frame"), "needs enabled = true");
+    vis.finish();
+}
+
+KeySegment read_segment(TableReader& t, const toml::node& node, const Scene& scene, int index) {
+    KeySegment k;
+    k.index = index;
+    k.line = t.line(&node);
+    k.pair = read_pair(t, node, scene);
+    auto a = t.frame_range("a"), b = t.frame_range("b");
+    if (!a || !b) t.error(a ? "b" : "a", &node, "is missing: the key segment's frame range as [first, last]");
+    k.a = *a;
+    k.b = *b;
+    for (auto [range, name, key] : {std::tuple{k.a, k.pair[0], "a"}, std::tuple{k.b, k.pair[1], "b"}}) {
+        const SceneObject& object = scene.object(name);
+        if (range[0] < object.frame_first || range[1] > object.frame_last)
+            t.error(key, t.get(key), "frames {}..{} are beyond object {}'s frames {}..{}", range[0], range[1], object.name, object.frame_first,
+                    object.frame_last);
+    }
+    auto type = t.string("type");
+    if (!type) t.error("type", &node, "is missing: the interaction type (e.g. \"+&-\", \"0&0a\")");
+    k.type = parse_interaction_type(*type, t.where("type", t.get("type")));
+    k.tolerance = t.integer("tolerance", 0, 1000).value_or(0);
+    read_visibility(t, k.visibility);
+    read_real_capture_keys(t, k);
+    read_intent(t, k.intent);
+    read_parts(t, "interest", scene, k.pair, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
+    read_parts(t, "fidelity", scene, k.pair, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
+    int tau = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1).length;
+    if (tau > 500) t.error("a", t.get("a"), "the pair normalises to {} frames; a key segment may have at most 500", tau);
+    check_segment_order(t, scene, k);
+    t.finish();
+    return k;
+}
+
+// How many key segments pair `name` with an object of `placed`.
+int segments_with(const Scene& scene, const std::string& name, const std::vector<std::string>& placed) {
+    auto in = [&](const std::string& n) { return std::find(placed.begin(), placed.end(), n) != placed.end(); };
+    int count = 0;
+    for (const KeySegment& k : scene.segments) count += (k.pair[0] == name && in(k.pair[1])) || (k.pair[1] == name && in(k.pair[0]));
+    return count;
+}
+
+// The placement order (docs/method.md section 11): `order = [...]` as given (the anchor first), or
+// the anchor and then, one at a time, the object with the most key segments with the objects
+// already placed (ties: file order). Each pair must name the object placed first first.
+void resolve_order(TableReader& top, Scene& scene) {
+    const auto anchor = std::find_if(scene.objects.begin(), scene.objects.end(), [](const SceneObject& o) { return o.anchor; });
+    if (top.has("order")) {
+        scene.order = top.strings("order");
+        scene.order_rule = "as the scene's order gives it";
+        std::vector<std::string> sorted = scene.order, names;
+        for (const SceneObject& o : scene.objects) names.push_back(o.name);
+        std::sort(sorted.begin(), sorted.end());
+        std::sort(names.begin(), names.end());
+        if (sorted != names) top.error("order", top.get("order"), "must list every object once");
+        if (scene.order.front() != anchor->name) top.error("order", top.get("order"), "must start with the anchor, {}", anchor->name);
+    } else {
+        scene.order = {anchor->name};
+        scene.order_rule = "the anchor first, then each time the object with the most key segments with the objects already placed (ties: file order)";
+        while (scene.order.size() < scene.objects.size()) {
+            const SceneObject* best = nullptr;
+            int most = -1;
+            for (const SceneObject& o : scene.objects) {
+                if (std::find(scene.order.begin(), scene.order.end(), o.name) != scene.order.end()) continue;
+                const int count = segments_with(scene, o.name, scene.order);
+                if (count > most) best = &o, most = count;
+            }
+            scene.order.push_back(best->name);
+        }
+    }
+    for (std::size_t n = 1; n < scene.order.size(); ++n) {
+        const std::vector<std::string> placed(scene.order.begin(), scene.order.begin() + std::ptrdiff_t(n));
+        if (segments_with(scene, scene.order[n], placed) == 0)
+            top.error("segments", top.get("segments"), "object {} has no key segment with an object placed before it (order: {}): nothing places it",
+                      scene.order[n], fmt::join(scene.order, ", "));
+    }
+    auto position = [&](const std::string& name) { return std::find(scene.order.begin(), scene.order.end(), name) - scene.order.begin(); };
+    for (const KeySegment& k : scene.segments)
+        if (position(k.pair[0]) > position(k.pair[1]))
+            fail(fmt::format("{}:{}: segments[{}].pair", scene.file.string(), k.line, k.index),
+                 "[{}, {}] puts {} first, but {} is placed before it (order: {}): write the pair as [{}, {}] with a and b, interest and fidelity swapped",
+                 k.pair[0], k.pair[1], k.pair[0], k.pair[1], fmt::join(scene.order, ", "), k.pair[1], k.pair[0]);
+    scene.a = scene.object(scene.order[0]);
+    scene.b = scene.object(scene.order[1]);
+}
+
+Placement read_placement(TableReader& t) {
+    Placement p;
+    p.x = t.number("x", -1e4, 1e4).value_or(0);
+    p.y = t.number("y", -1e4, 1e4).value_or(0);
+    p.yaw_deg = t.number("yaw_deg", -360, 360).value_or(0);
+    t.finish();
+    return p;
+}
+
+// [truth] (two objects: B's capture frame in A's) or [truth.NAME] per object (its capture frame in
+// the anchor's).
+void read_truth(TableReader& top, Scene& scene) {
+    if (!top.has("truth")) return;
+    TableReader truth = top.table("truth");
+    const toml::table& table = *top.get("truth")->as_table();
+    const bool per_object = std::any_of(table.begin(), table.end(), [](const auto& entry) { return entry.second.is_table(); });
+    if (!per_object) {
+        if (scene.multi_party())
+            top.error("truth", top.get("truth"), "a scene of {} objects gives the truth per object: [truth.NAME] with x, y and yaw_deg", scene.objects.size());
+        scene.truth = read_placement(truth);
+        return;
+    }
+    for (const std::string& name : truth.keys_in_file_order()) {
+        if (std::find(scene.order.begin() + 1, scene.order.end(), name) == scene.order.end())
+            truth.error(name, truth.get(name), "'{}' is not an object placed against the anchor {}", name, scene.order.front());
+        TableReader t = truth.table(name);
+        scene.truths[name] = read_placement(t);
+    }
+    truth.finish();
+    if (!scene.multi_party() && scene.truths.count(scene.b.name)) scene.truth = scene.truths.at(scene.b.name);
+}
 }  // namespace
 
 Scene load_scene(const fs::path& file) {
@@ -386,73 +590,28 @@ Scene load_scene(const fs::path& file) {
     }
     weights.finish();
 
-    if (top.has("truth")) {
-        TableReader truth = top.table("truth");
-        Placement t;
-        t.x = truth.number("x", -1e4, 1e4).value_or(0);
-        t.y = truth.number("y", -1e4, 1e4).value_or(0);
-        t.yaw_deg = truth.number("yaw_deg", -360, 360).value_or(0);
-        truth.finish();
-        scene.truth = t;
-    }
-
-    TableReader objects = top.table("objects", true);
-    scene.a = read_object(objects, "A");
-    scene.b = read_object(objects, "B");
-    objects.finish();
-
+    read_objects(top, scene);
     const toml::node* segments_node = top.get("segments");
     const toml::array* segments = segments_node ? segments_node->as_array() : nullptr;
     if (!segments || segments->empty())
         top.error("segments", segments_node, "give at least one key segment pair as [[segments]] with a, b and type");
+    if (segments->size() > std::size_t(kMaxSegments)) top.error("segments", segments_node, "{} key segments; a scene may have at most {}", segments->size(), kMaxSegments);
     for (std::size_t s = 0; s < segments->size(); ++s) {
         const toml::node& node = *segments->get(s);
         if (!node.is_table()) top.error(fmt::format("segments[{}]", s + 1), &node, "must be a table");
         TableReader t(*node.as_table(), fmt::format("segments[{}]", s + 1), file);
-        KeySegment k;
-        k.index = int(s) + 1;
-        k.line = t.line(&node);
-        auto a = t.frame_range("a"), b = t.frame_range("b");
-        if (!a || !b) t.error(a ? "b" : "a", &node, "is missing: the key segment's frame range as [first, last]");
-        k.a = *a;
-        k.b = *b;
-        for (auto [range, object, key] : {std::tuple{k.a, &scene.a, "a"}, std::tuple{k.b, &scene.b, "b"}})
-            if (range[0] < object->frame_first || range[1] > object->frame_last)
-                t.error(key, t.get(key), "frames {}..{} are beyond object {}'s frames {}..{}", range[0], range[1], object->name,
-                        object->frame_first, object->frame_last);
-        auto type = t.string("type");
-        if (!type) t.error("type", &node, "is missing: the interaction type (e.g. \"+&-\", \"0&0a\")");
-        k.type = parse_interaction_type(*type, t.where("type", t.get("type")));
-        k.tolerance = t.integer("tolerance", 0, 1000).value_or(0);
-        TableReader vis = t.table("visibility");
-        k.visibility.enabled = vis.boolean("enabled").value_or(false);
-        k.visibility.half_angle_deg = vis.number("half_angle_deg", 0, 90, false).value_or(30);
-        k.visibility.range = vis.number("range", 0, 1000).value_or(0);
-        k.visibility.per_frame = vis.boolean("per_frame").value_or(false);
-        if (auto f = vis.number("frames", 0, 1, false)) {
-            if (!k.visibility.per_frame) vis.error("frames", vis.get("frames"), "applies to per-frame visibility only; add per_frame = true");
-            k.visibility.frames = *f;
-        }
-        if (k.visibility.per_frame && !k.visibility.enabled)
-            vis.error("per_frame", vis.get("per_frame"), "needs enabled = true");
-        vis.finish();
-        read_real_capture_keys(t, k);
-        read_intent(t, k.intent);
-        read_parts(t, "interest", scene, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
-        read_parts(t, "fidelity", scene, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
-        int tau = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1).length;
-        if (tau > 500) t.error("a", t.get("a"), "the pair normalises to {} frames; a key segment may have at most 500", tau);
-        if (!scene.segments.empty()) {
-            const KeySegment& prev = scene.segments.back();
-            if (k.a[0] <= prev.a[1] || k.b[0] <= prev.b[1])
-                t.error(k.a[0] <= prev.a[1] ? "a" : "b", t.get(k.a[0] <= prev.a[1] ? "a" : "b"),
-                        "overlaps or comes before key segment {}: key segments must be in order and must not overlap", prev.index);
-        }
-        t.finish();
-        scene.segments.push_back(k);
+        scene.segments.push_back(read_segment(t, node, scene, int(s) + 1));
     }
+    resolve_order(top, scene);
+    read_truth(top, scene);
     top.finish();
     return scene;
+}
+
+const SceneObject& Scene::object(const std::string& name) const {
+    for (const SceneObject& o : objects)
+        if (o.name == name) return o;
+    throw Error(fmt::format("{}: no object named '{}'", file.string(), name));
 }
 
 std::string resolved_toml(const Scene& scene) {
@@ -485,8 +644,11 @@ std::string resolved_toml(const Scene& scene) {
     root.insert("weights", toml::table{{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
                                        {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", rotations}});
     toml::table objects;
-    for (const SceneObject* o : {&scene.a, &scene.b}) {
+    for (const SceneObject& object : scene.objects) {
+        const SceneObject* o = &object;
         toml::table t;
+        // Two-object scenes with the anchor first print as before (their hashes stay the same).
+        if (scene.multi_party() || (o->anchor && o != &scene.objects.front())) t.insert("anchor", o->anchor);
         if (!o->meshes.empty()) t.insert("meshes", o->meshes);
         if (!o->bvh.empty()) t.insert("bvh", o->bvh);
         t.insert("unit", o->units.metres_per_unit);
@@ -506,6 +668,14 @@ std::string resolved_toml(const Scene& scene) {
     }
     root.insert("objects", objects);
     if (scene.truth) root.insert("truth", toml::table{{"x", scene.truth->x}, {"y", scene.truth->y}, {"yaw_deg", scene.truth->yaw_deg}});
+    if (scene.multi_party()) {
+        toml::array order;
+        for (const std::string& name : scene.order) order.push_back(name);
+        root.insert("order", order);
+        toml::table truths;
+        for (const auto& [name, t] : scene.truths) truths.insert(name, toml::table{{"x", t.x}, {"y", t.y}, {"yaw_deg", t.yaw_deg}});
+        if (!truths.empty()) root.insert("truth", truths);
+    }
     toml::array segments;
     for (const KeySegment& k : scene.segments) {
         NormalisedPair pair = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1);
@@ -522,10 +692,11 @@ std::string resolved_toml(const Scene& scene) {
                                        {"range", k.visibility.range},
                                        {"per_frame", k.visibility.per_frame},
                                        {"frames", k.visibility.frames}}},
-            {"interest", toml::table{{"A", part_node(k.interest_a)}, {"B", part_node(k.interest_b)}}},
-            {"fidelity", toml::table{{"A", part_node(k.fidelity_a)}, {"B", part_node(k.fidelity_b)}}},
+            {"interest", toml::table{{k.pair[0], part_node(k.interest_a)}, {k.pair[1], part_node(k.interest_b)}}},
+            {"fidelity", toml::table{{k.pair[0], part_node(k.fidelity_a)}, {k.pair[1], part_node(k.fidelity_b)}}},
         });
         toml::table& entry = *segments.back().as_table();
+        if (scene.multi_party()) entry.insert("pair", toml::array{k.pair[0], k.pair[1]});
         if (k.z_range) entry.insert("z_range", toml::array{(*k.z_range)[0], (*k.z_range)[1]});
         const Intent& in = k.intent;
         if (in.prefers()) {
@@ -562,8 +733,8 @@ void add_input(std::vector<std::filesystem::path>& inputs, const std::string& pa
 
 std::vector<std::filesystem::path> scene_inputs(const Scene& scene) {
     std::vector<std::filesystem::path> inputs{scene.file};
-    for (const SceneObject* object : {&scene.a, &scene.b})
-        for (const std::string* path : {&object->meshes, &object->bvh, &object->labels, &object->track}) add_input(inputs, *path);
+    for (const SceneObject& object : scene.objects)
+        for (const std::string* path : {&object.meshes, &object.bvh, &object.labels, &object.track}) add_input(inputs, *path);
     for (const KeySegment& segment : scene.segments)
         for (const PartSpec* part : {&segment.interest_a, &segment.interest_b, &segment.fidelity_a, &segment.fidelity_b})
             if (part->kind == PartSpec::Kind::Meshes) add_input(inputs, part->meshes);

@@ -4,6 +4,7 @@
 // any work, and every error names the file, the line and the key.
 #include <array>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,7 +31,8 @@ struct Placement {
 };
 
 struct SceneObject {
-    std::string name;                  // "A" or "B"
+    std::string name;                  // the key of [objects.NAME]: "A", "B", ...
+    bool anchor = false;               // the object that stays fixed (docs/method.md section 11)
     std::string meshes;                // folder or printf pattern (resolved path), or
     std::string bvh;                   // a BVH file: a body built from the bones
     BodyKind body = BodyKind::Capsules;  // BVH: capsules around the bones, or the skinned human
@@ -77,6 +79,9 @@ struct Intent {
 
 struct KeySegment {
     int index = 0;  // 1-based, in file order
+    // The pair's objects: the first is placed before the second (the anchor first). In a two-object
+    // scene they are [anchor, other] by default; below, "A" is pair[0] and "B" is pair[1].
+    std::array<std::string, 2> pair{"A", "B"};
     std::array<int, 2> a{}, b{};  // inclusive frame numbers in A and in B
     InteractionType type;
     int tolerance = 0;
@@ -113,12 +118,27 @@ struct Scene {
     std::filesystem::path file;
     Sampling sampling;
     Weights weights;
+    // The pair the two-object pipeline edits: the anchor and the other object (a multi-party scene:
+    // the first two objects of `order`; its later stages are scenes of their own, src/edit/party.hpp).
     SceneObject a, b;
     std::vector<KeySegment> segments;
     // Optional ground truth for evaluation: where B's capture frame really sits in A's capture
     // frame (captures made together, e.g. the CMU pair: identity). Results then report how far the
     // solution group and the chosen pose are from it.
     std::optional<Placement> truth;
+    // Every object in file order; two for a two-object scene (a and b above).
+    std::vector<SceneObject> objects;
+    // Placement order (docs/method.md section 11): the anchor first, then each object against the
+    // ones before it; `order_rule` says how it was found (for `amhv check`).
+    std::vector<std::string> order;
+    std::string order_rule;
+    // Multi-party ground truth: each object's capture frame in the anchor's ([truth.NAME]).
+    std::map<std::string, Placement> truths;
+    // A multi-party stage scene (src/pipeline/party_stage.hpp): A, the objects placed so far, keeps
+    // its timing; every segment pair takes A's length, and where B has no frames it holds its nearest.
+    bool a_sets_time = false;
+    bool multi_party() const { return objects.size() > 2; }
+    const SceneObject& object(const std::string& name) const;
 };
 
 // Parses and validates `file`; relative paths are resolved against the file's folder. Checks the

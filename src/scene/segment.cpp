@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <sstream>
+
+#include <Eigen/Geometry>
 
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
@@ -176,8 +179,71 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
     if (!spec_.track.empty()) track_ = read_track_csv(spec_.track, spec_.units);
 }
 
+namespace {
+
+TriangleMesh moved(const TriangleMesh& mesh, const MemberFrame& f) {
+    TriangleMesh out = mesh;
+    const Eigen::Rotation2Dd rotation(f.yaw);
+    for (Vec3& v : out.vertices) {
+        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + f.translation;
+        v = Vec3(p.x(), p.y(), v.z() + f.lift);
+    }
+    return out;
+}
+
+}  // namespace
+
+ObjectSource::ObjectSource(const SceneObject& spec, std::vector<GroupMember> members) : spec_(spec), members_(std::move(members)) {
+    if (members_.empty()) throw Error("a placed group needs at least one member");
+    for (const GroupMember& m : members_)
+        if (int(m.frames.size()) != spec_.frame_last + 1) throw Error(fmt::format("group {}: a member's frames do not cover the group's", spec_.name));
+    label_names_ = members_.front().source->label_names();
+    for (std::size_t m = 1; m < members_.size(); ++m) label_names_.push_back("@" + members_[m].source->spec().name);
+    make_group_track();
+}
+
+// The partner's track moved with it; where it has none, its facing from the eye height (10 cm below
+// the top of its body) above its root.
+void ObjectSource::make_group_track() {
+    const GroupMember& partner = members_.front();
+    for (int k = 0; k <= spec_.frame_last; ++k) {
+        const MemberFrame& f = partner.frames[std::size_t(k)];
+        const Eigen::Rotation2Dd rotation(f.yaw);
+        if (auto sample = partner.source->track(f.source)) {
+            const Eigen::Vector2d eye = rotation * Eigen::Vector2d(sample->eye.x(), sample->eye.y()) + f.translation;
+            const Eigen::Vector2d gaze = rotation * Eigen::Vector2d(sample->gaze.x(), sample->gaze.y());
+            track_[k] = {Vec3(eye.x(), eye.y(), sample->eye.z() + f.lift), Vec3(gaze.x(), gaze.y(), sample->gaze.z())};
+            continue;
+        }
+        double top = -std::numeric_limits<double>::infinity();
+        for (const BodyPart& part : partner.source->frame_parts(f.source))
+            for (const Vec3& v : part.mesh.vertices) top = std::max(top, v.z() + f.lift);
+        track_[k] = {Vec3(f.root.x(), f.root.y(), top - 0.1), Vec3(std::cos(f.facing), std::sin(f.facing), 0)};
+    }
+}
+
+const std::vector<BodyPart>& ObjectSource::group_parts(int number) {
+    if (number < 0 || number > spec_.frame_last) fail("group " + spec_.name, "has no frame {} (frames 0..{})", number, spec_.frame_last);
+    std::vector<BodyPart> parts;
+    for (std::size_t m = 0; m < members_.size(); ++m) {
+        const MemberFrame& f = members_[m].frames[std::size_t(number)];
+        const std::vector<BodyPart>& own = members_[m].source->frame_parts(f.source);
+        if (m == 0) {
+            for (const BodyPart& p : own) parts.push_back({p.name, moved(p.mesh, f)});
+            for (const std::string& name : members_[m].source->label_names())
+                if (std::find(label_names_.begin(), label_names_.end(), name) == label_names_.end()) label_names_.push_back(name);
+            continue;
+        }
+        BodyPart all{"@" + members_[m].source->spec().name, {}};
+        for (const BodyPart& p : own) all.mesh.append(moved(p.mesh, f));
+        parts.push_back(std::move(all));
+    }
+    return frames_.emplace(number, std::move(parts)).first->second;
+}
+
 const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
     if (auto it = frames_.find(number); it != frames_.end()) return it->second;
+    if (is_group()) return group_parts(number);
     std::vector<BodyPart> parts;
     if (motion_) {
         parts = skeleton_body_parts(*motion_, number, body_options_);
@@ -203,6 +269,12 @@ std::optional<TrackSample> ObjectSource::track(int number) const {
 const MeshFrame& ObjectSource::part_frame(const std::string& meshes, int number) {
     auto key = std::make_pair(meshes, number);
     if (auto it = part_frames_.find(key); it != part_frames_.end()) return it->second;
+    if (is_group()) {  // the partner's part sequence, moved with it
+        const GroupMember& partner = members_.front();
+        const MemberFrame& f = partner.frames[std::size_t(number)];
+        const MeshFrame& own = partner.source->part_frame(meshes, f.source);
+        return part_frames_.emplace(key, MeshFrame{moved(own.mesh, f), own.source}).first->second;
+    }
     const fs::path file = frame_file(meshes, number);
     MeshFrame frame{read_mesh(file, spec_.units), file.string()};
     return part_frames_.emplace(key, std::move(frame)).first->second;
@@ -381,18 +453,53 @@ void add_view_cones(SweepProblem& p, ObjectSource& a, ObjectSource& b, const std
     p.b.view_cone = segment_cone(p.b, b, numbers_b, region_b, visibility, h);
 }
 
+// A key segment's parts on a placed group's side (docs/method.md section 11): the interest is the
+// partner's alone; the fidelity volume also holds every other member, so that the newcomer keeps
+// out of all of them.
+std::array<PartSpec, 2> group_side_parts(const ObjectSource& group, PartSpec interest, PartSpec fidelity, const std::string& where) {
+    std::vector<std::string> others;
+    for (std::size_t m = 1; m < group.members().size(); ++m) others.push_back("@" + group.members()[m].source->spec().name);
+    const std::string& partner = group.members().front().source->spec().name;
+    for (const PartSpec* spec : {&interest, &fidelity})
+        if (spec->kind == PartSpec::Kind::Box || (spec == &fidelity && spec->kind == PartSpec::Kind::Meshes))
+            fail(where, "object {} is placed in a group here, and its {} part is {}: name its parts instead (a box or a fidelity "
+                 "sequence on the placed side is not supported yet)", partner, spec == &interest ? "interest" : "fidelity", spec->describe());
+    if (interest.kind == PartSpec::Kind::Whole) interest = PartSpec{PartSpec::Kind::PartsExcept, "", others, {}};
+    else if (interest.kind == PartSpec::Kind::PartsExcept) interest.labels.insert(interest.labels.end(), others.begin(), others.end());
+    if (fidelity.kind == PartSpec::Kind::Parts) fidelity.labels.insert(fidelity.labels.end(), others.begin(), others.end());
+    return {interest, fidelity};
+}
+
+// The root of a group's partner alone over the segment's frames, on the group's grid: the
+// descriptors (distance, angles) and the pose lattice are about the partner, not the group's centroid.
+Vec3 partner_root(ObjectSource& group, int first, const std::vector<int>& relative, const VoxelGrid& grid, Voxeliser& voxeliser) {
+    std::vector<MeshFrame> merged(relative.size());
+    std::vector<const MeshFrame*> pointers;
+    for (std::size_t f = 0; f < relative.size(); ++f) {
+        const int number = first + relative[f];
+        for (const BodyPart& part : group.frame_parts(number))
+            if (part.name.empty() || part.name.front() != '@') merged[f].mesh.append(part.mesh);
+        merged[f].source = fmt::format("group {} frame {}", group.spec().name, number);
+        pointers.push_back(&merged[f]);
+    }
+    return summarise(voxelise(prepare_voxelisation(pointers, grid), voxeliser)).root;
+}
+
 }  // namespace
 
 SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
     SegmentBuild build;
-    build.frames = normalise_pair(segment.a[1] - segment.a[0] + 1, segment.b[1] - segment.b[0] + 1);
+    const int length_a = segment.a[1] - segment.a[0] + 1, length_b = segment.b[1] - segment.b[0] + 1;
+    build.frames = scene.a_sets_time ? normalise_to_a(length_a, length_b) : normalise_pair(length_a, length_b);
     const double h = scene.sampling.voxel;
     const std::string where = fmt::format("{}: segments[{}]", scene.file.string(), segment.index);
     std::vector<int> numbers_a, numbers_b;
     SweepProblem& p = build.problem;
     // contact_tolerance grows A's part only: the gap between the parts closes by the radius once.
-    p.a = segment_object(a, segment.a[0], build.frames.frames_a, segment.interest_a, segment.fidelity_a, h, voxeliser, where, numbers_a,
-                         segment.contact_tolerance);
+    std::array<PartSpec, 2> parts_a{segment.interest_a, segment.fidelity_a};
+    if (a.is_group()) parts_a = group_side_parts(a, segment.interest_a, segment.fidelity_a, where);
+    p.a = segment_object(a, segment.a[0], build.frames.frames_a, parts_a[0], parts_a[1], h, voxeliser, where, numbers_a, segment.contact_tolerance);
+    if (a.is_group()) p.a.root = partner_root(a, segment.a[0], build.frames.frames_a, p.a.whole.grid(), voxeliser);
     p.b = segment_object(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, h, voxeliser, where, numbers_b, 0);
     p.type = segment.type;
     p.tolerance = segment.tolerance;

@@ -13,11 +13,40 @@
 
 namespace amhv {
 
+class ObjectSource;
+
+// Where an edit put one object at one frame of a placed group: capture -> scene is
+// p -> R(yaw) p + translation, with z raised by lift.
+struct MemberFrame {
+    int source = 0;  // frame number in the object's sequence
+    double yaw = 0;
+    Eigen::Vector2d translation = Eigen::Vector2d::Zero();
+    double lift = 0;
+    Eigen::Vector2d root = Eigen::Vector2d::Zero();  // the frame's root, in the scene
+    double facing = 0;                               // the frame's facing in the scene (radians)
+};
+
+// One placed object of a group: its source and where it is at each of the group's frames.
+struct GroupMember {
+    ObjectSource* source = nullptr;
+    std::vector<MemberFrame> frames;
+};
+
 // One object's frames, read on demand: each frame split into labelled parts (one part named ""
 // when the object has no labels) and its track sample when it has a track.
+//
+// Or a placed group (docs/method.md section 11): the objects a multi-party edit has placed so far,
+// as one fixed object in the scene's frame whose frame k is every member where the edit put it at
+// its output frame k. The first member is the partner of the key segments at hand: its parts keep
+// their names and its track is the group's (moved with it; without one, its facing from the eye
+// height, as a two-object sweep would take it). Every other member is one part named "@NAME".
 class ObjectSource {
 public:
     explicit ObjectSource(const SceneObject& spec);
+    ObjectSource(const SceneObject& spec, std::vector<GroupMember> members);
+    bool is_group() const { return !members_.empty(); }
+    // The group's members (empty for one object).
+    const std::vector<GroupMember>& members() const { return members_; }
     const SceneObject& spec() const { return spec_; }
     const std::vector<BodyPart>& frame_parts(int number);
     std::optional<TrackSample> track(int number) const;
@@ -34,6 +63,8 @@ public:
 
 private:
     double find_floor();
+    const std::vector<BodyPart>& group_parts(int number);
+    void make_group_track();
     std::string floor_note_;
     SceneObject spec_;
     std::optional<BvhMotion> motion_;
@@ -42,6 +73,7 @@ private:
     std::map<int, std::vector<BodyPart>> frames_;
     std::map<std::pair<std::string, int>, MeshFrame> part_frames_;
     std::vector<std::string> label_names_;
+    std::vector<GroupMember> members_;
 };
 
 struct SegmentBuild {
