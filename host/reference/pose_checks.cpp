@@ -12,6 +12,20 @@ PoseSides::PoseSides(const SweepProblem& problem)
       cone_b(problem.visibility ? problem.b.view_cone.to_amhv() : Amhv()),
       b{BVolume(problem.b.interest), BVolume(problem.b.fidelity), BVolume(problem.b.whole), BVolume(cone_b)} {
     if (problem.visibility) cone = occupied_voxels(cone_a);
+    if (problem.a.has_clearance()) clearance = occupied_voxels(problem.a.clearance);
+}
+
+bool keeps_apart(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup) {
+    auto meet = [&](const std::vector<LatticeVoxel>& list, const Amhv& a, const BVolume& b) {
+        for (const LatticeVoxel& u : list) {
+            auto vb = lookup(b, u);
+            if (!vb) continue;
+            for (int t = 0; t < p.frames(); ++t)
+                if (a.occupied(u.index, t) && b.volume.occupied(*vb, t)) return true;
+        }
+        return false;
+    };
+    return !meet(s.fidelity, p.a.fidelity, s.b.fidelity) && !(p.a.has_clearance() && meet(s.clearance, p.a.clearance, s.b.whole));
 }
 
 ContactPairs contact_pairs(const PoseSides& s, const PoseLookup& lookup) {

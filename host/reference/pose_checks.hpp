@@ -18,7 +18,7 @@ struct PoseSides {
     PoseSides(const PoseSides&) = delete;  // `b` refers to `cone_b`
     PoseSides& operator=(const PoseSides&) = delete;
 
-    std::vector<LatticeVoxel> interest, fidelity, whole, cone;  // A's
+    std::vector<LatticeVoxel> interest, fidelity, whole, cone, clearance;  // A's
     Amhv cone_a, cone_b;  // visibility only
     BSide b;
 };
@@ -32,6 +32,10 @@ ContactPairs contact_pairs(const PoseSides& s, const PoseLookup& lookup);
 bool breaks_rule(const SweepProblem& p, std::size_t va, std::size_t vb);
 // Per frame: whether the interest parts share a voxel (0&0 a and b).
 std::vector<std::uint8_t> touching_frames(const SweepProblem& p, const ContactPairs& contact);
+
+// Fidelity (eq. 15): no voxel of N^A and N^B at the same frame; and in a multi-party stage, no voxel
+// of A's clearance volume (the other placed objects) and B's whole body at the same frame.
+bool keeps_apart(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup);
 
 // Mutual visibility (eq. 14): one entry for the swept test, one per frame for per-frame visibility.
 struct Sight {

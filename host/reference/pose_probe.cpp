@@ -89,6 +89,9 @@ PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
     for (const LatticeVoxel& u : s.fidelity)
         if (auto vb = lookup(b.fidelity, u))
             for (int t = 0; t < frames; ++t) out.fidelity_voxels[std::size_t(t)] += p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t);
+    for (const LatticeVoxel& u : s.clearance)  // multi-party: the other placed objects against B's whole body
+        if (auto vb = lookup(b.whole, u))
+            for (int t = 0; t < frames; ++t) out.fidelity_voxels[std::size_t(t)] += p.a.clearance.occupied(u.index, t) && p.b.whole.occupied(*vb, t);
     out.passes[2] = std::all_of(out.fidelity_voxels.begin(), out.fidelity_voxels.end(), [](std::uint64_t n) { return n == 0; });
 
     out.passes[3] = true;

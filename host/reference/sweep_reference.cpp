@@ -27,13 +27,7 @@ PoseOutcome evaluate(const SweepProblem& p, const PoseSides& s, int i, int j, in
             if (breaks_rule(p, va, vb)) return PoseOutcome::FailsDictionary;
     }
 
-    // Fidelity (eq. 15): no voxel of N^A and N^B at the same frame.
-    for (const LatticeVoxel& u : s.fidelity) {
-        auto vb = lookup(s.b.fidelity, u);
-        if (!vb) continue;
-        for (int t = 0; t < p.frames(); ++t)
-            if (p.a.fidelity.occupied(u.index, t) && p.b.fidelity.occupied(*vb, t)) return PoseOutcome::FailsFidelity;
-    }
+    if (!keeps_apart(p, s, lookup)) return PoseOutcome::FailsFidelity;
 
     if (p.visibility && !sight(p, s, lookup).passes(p)) return PoseOutcome::FailsVisibility;
     return PoseOutcome::Solution;

@@ -40,7 +40,7 @@ std::array<double, 4> parse_pose(const std::string& text) {
 void run_probe(ProbeArguments args) {
     if (args.pose.empty() == !args.request.truth) fail("probe", "give exactly one of --pose X,Y,THETA[,Z] and --truth");
     if (!args.pose.empty()) args.request.pose = parse_pose(args.pose);
-    const Scene scene = load_scene(args.scene);
+    const Scene scene = load_two_object_scene(args.scene, "probe");
     Backend backend(args.backend, args.device);
     const pipeline::ProbeAnswer answer = pipeline::probe_scene(scene, args.request, backend.voxeliser());
     if (args.json) std::cout << pipeline::probe_json(answer).dump(2) << '\n';

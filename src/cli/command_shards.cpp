@@ -28,7 +28,7 @@ void run_merge(const MergeArguments& args) {
     const std::vector<fs::path> folders(args.shards.begin(), args.shards.end());
     const pipeline::ShardSet set = pipeline::read_shard_set(folders);
     // The shards name their scene; where this machine mounts it elsewhere, --scene (same hash).
-    const Scene scene = load_scene(args.scene.empty() ? set.shards.front().scene : args.scene);
+    const Scene scene = load_two_object_scene(args.scene.empty() ? set.shards.front().scene : args.scene, "merge");
     pipeline::check_shard_set(set, scene);
     std::vector<fs::path> inputs = scene_inputs(scene);
     inputs.insert(inputs.end(), folders.begin(), folders.end());
@@ -48,7 +48,7 @@ struct PlanArguments {
 };
 
 void run_plan(PlanArguments args) {
-    const Scene scene = load_scene(args.scene);
+    const Scene scene = load_two_object_scene(args.scene, "plan");
     pipeline::plan_shards(scene, args.options.shards);  // refuses an impossible N before writing
     args.options.program = fs::canonical("/proc/self/exe");
     StagedOutput out(args.out, scene_inputs(scene));

@@ -44,7 +44,7 @@ void run_shard(const SweepArguments& args, std::chrono::steady_clock::time_point
     if (args.segment || args.csv || !args.maps || args.require_solutions)
         throw Error("--shard: --segment, --csv, --no-maps and --require-solutions are options of `amhv merge`, which writes the files");
     const pipeline::ShardIndex shard = pipeline::parse_shard(*args.shard);
-    Scene scene = load_scene(args.scene);
+    Scene scene = load_two_object_scene(args.scene, "sweep --shard");
     pipeline::plan_shards(scene, shard.count);  // refuses an impossible N before the backend starts
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
@@ -58,7 +58,7 @@ void run_shard(const SweepArguments& args, std::chrono::steady_clock::time_point
 void run_sweep(const SweepArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     if (args.shard) return run_shard(args, start);
-    Scene scene = load_scene(args.scene);
+    Scene scene = load_two_object_scene(args.scene, "sweep");
     if (args.segment < 0 || args.segment > int(scene.segments.size()))
         throw Error(fmt::format("--segment: {} is not a key segment of {} (1..{})", args.segment, args.scene, scene.segments.size()));
 

@@ -184,8 +184,8 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
-                                    "change its type, parts or visibility, or pass --allow-empty to keep B's captured placement there",
-                                    scene.file.string(), key.index, key.type.name(), s.poses_tested, rejection_counts(s.rejected)));
+                                    "change its type, parts or visibility, or pass --allow-empty to keep {}'s captured placement there",
+                                    scene.file.string(), key.index, key.type.name(), s.poses_tested, rejection_counts(s.rejected), scene.b.name));
         // The captured placement, on the sweep's lattice (within h/2 and half an angle step).
         captured[i] = true;
         const int k = int(std::lround(c.prior_theta_rad / step));

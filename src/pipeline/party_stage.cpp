@@ -163,6 +163,15 @@ void add_stage(PartyEdit& party, const PartyStage& stage, bool first) {
     party.frames.push_back(stage.edit.frames[1]);
 }
 
+// One stage's edit; an error names the object being placed and the ones it is placed against.
+EditResult edit_stage(const PartyStage& stage, ObjectSource& a, ObjectSource& b, Backends& backends, const EditOptions& options) {
+    try {
+        return edit_scene(stage.scene, stage.sweep.sweeps, a, b, backends.voxeliser, options);
+    } catch (const Error& e) {
+        throw Error(fmt::format("placing {} against {}: {}", stage.object, fmt::join(stage.against, ", "), e.what()));
+    }
+}
+
 }  // namespace
 
 PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSource>>& sources, Backends& backends, const fs::path& out,
@@ -186,7 +195,7 @@ PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSourc
         edit_options.allow_transition_overlap = options.allow_transition_overlap;
         edit_options.fixed_a = true;
         ObjectSource& a_source = first ? *sources.front() : *groups.front();
-        stage.edit = edit_scene(stage.scene, stage.sweep.sweeps, a_source, *sources[n], backends.voxeliser, edit_options);
+        stage.edit = edit_stage(stage, a_source, *sources[n], backends, edit_options);
         add_stage(party, stage, first);
         party.stages.push_back(std::move(stage));
     }

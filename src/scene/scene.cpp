@@ -614,6 +614,14 @@ const SceneObject& Scene::object(const std::string& name) const {
     throw Error(fmt::format("{}: no object named '{}'", file.string(), name));
 }
 
+Scene load_two_object_scene(const fs::path& file, const std::string& command) {
+    Scene scene = load_scene(file);
+    if (scene.multi_party())
+        fail(scene.file.string(), "has {} objects; `amhv {}` takes two. Each object after the second is swept against the edit of the ones placed "
+             "before it, so a multi-party scene is swept and edited in one run: amhv edit", scene.objects.size(), command);
+    return scene;
+}
+
 std::string resolved_toml(const Scene& scene) {
     auto vec = [](const Vec3& v) { return toml::array{v.x(), v.y(), v.z()}; };
     auto part_node = [&](const PartSpec& p) {

@@ -145,6 +145,10 @@ struct Scene {
 // referenced sequences exist and the frame ranges fit them. Throws amhv::Error "file:line: key: what".
 Scene load_scene(const std::filesystem::path& file);
 
+// load_scene for a command that takes two objects only (`amhv sweep`, `merge`, `plan`, `probe`):
+// a multi-party scene gets one line saying why and what to run instead.
+Scene load_two_object_scene(const std::filesystem::path& file, const std::string& command);
+
 // The scene with every default filled in, as TOML text (what `amhv check` prints).
 std::string resolved_toml(const Scene& scene);
 

@@ -454,8 +454,8 @@ void add_view_cones(SweepProblem& p, ObjectSource& a, ObjectSource& b, const std
 }
 
 // A key segment's parts on a placed group's side (docs/method.md section 11): the interest is the
-// partner's alone; the fidelity volume also holds every other member, so that the newcomer keeps
-// out of all of them.
+// partner's alone; the fidelity volume also holds every other member (which the clearance test
+// covers with B's whole body anyway, so the solutions are the same either way).
 std::array<PartSpec, 2> group_side_parts(const ObjectSource& group, PartSpec interest, PartSpec fidelity, const std::string& where) {
     std::vector<std::string> others;
     for (std::size_t m = 1; m < group.members().size(); ++m) others.push_back("@" + group.members()[m].source->spec().name);
@@ -470,19 +470,27 @@ std::array<PartSpec, 2> group_side_parts(const ObjectSource& group, PartSpec int
     return {interest, fidelity};
 }
 
-// The root of a group's partner alone over the segment's frames, on the group's grid: the
-// descriptors (distance, angles) and the pose lattice are about the partner, not the group's centroid.
-Vec3 partner_root(ObjectSource& group, int first, const std::vector<int>& relative, const VoxelGrid& grid, Voxeliser& voxeliser) {
+// The partner's (`partner`) or the other members' volume of a group over the segment's frames, on
+// the group's grid.
+Amhv member_volume(ObjectSource& group, bool partner, int first, const std::vector<int>& relative, const VoxelGrid& grid, Voxeliser& voxeliser) {
     std::vector<MeshFrame> merged(relative.size());
     std::vector<const MeshFrame*> pointers;
     for (std::size_t f = 0; f < relative.size(); ++f) {
         const int number = first + relative[f];
         for (const BodyPart& part : group.frame_parts(number))
-            if (part.name.empty() || part.name.front() != '@') merged[f].mesh.append(part.mesh);
+            if ((part.name.empty() || part.name.front() != '@') == partner) merged[f].mesh.append(part.mesh);
         merged[f].source = fmt::format("group {} frame {}", group.spec().name, number);
         pointers.push_back(&merged[f]);
     }
-    return summarise(voxelise(prepare_voxelisation(pointers, grid), voxeliser)).root;
+    return voxelise(prepare_voxelisation(pointers, grid), voxeliser);
+}
+
+// A placed group's side of a key segment (docs/method.md section 11): the pose lattice and the
+// descriptors (distance, angles) are about the partner's root, not the group's centroid, and the
+// other members are the clearance volume B's whole body must keep out of.
+void group_side(SweepObject& a, ObjectSource& group, int first, const std::vector<int>& relative, Voxeliser& voxeliser) {
+    a.root = summarise(member_volume(group, true, first, relative, a.whole.grid(), voxeliser)).root;
+    if (group.members().size() > 1) a.clearance = member_volume(group, false, first, relative, a.whole.grid(), voxeliser);
 }
 
 }  // namespace
@@ -499,7 +507,7 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     std::array<PartSpec, 2> parts_a{segment.interest_a, segment.fidelity_a};
     if (a.is_group()) parts_a = group_side_parts(a, segment.interest_a, segment.fidelity_a, where);
     p.a = segment_object(a, segment.a[0], build.frames.frames_a, parts_a[0], parts_a[1], h, voxeliser, where, numbers_a, segment.contact_tolerance);
-    if (a.is_group()) p.a.root = partner_root(a, segment.a[0], build.frames.frames_a, p.a.whole.grid(), voxeliser);
+    if (a.is_group()) group_side(p.a, a, segment.a[0], build.frames.frames_a, voxeliser);
     p.b = segment_object(b, segment.b[0], build.frames.frames_b, segment.interest_b, segment.fidelity_b, h, voxeliser, where, numbers_b, 0);
     p.type = segment.type;
     p.tolerance = segment.tolerance;

@@ -33,6 +33,13 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
         if (g.dims != w.dims || g.origin != w.origin || g.voxel != w.voxel)
             fail(what, "its interest, fidelity and whole volumes are not on one grid");
     }
+    if (object.has_clearance()) {
+        const VoxelGrid& g = object.clearance.grid();
+        const VoxelGrid& w = object.whole.grid();
+        if (object.clearance.frames() != frames || g.dims != w.dims || g.origin != w.origin || g.voxel != w.voxel)
+            fail(what, "its clearance volume is not on its grid or has another frame count");
+        if (&object == &problem.b) fail(what, "only A (the placed objects) has a clearance volume");
+    }
     if (!is_lattice_aligned(object.whole.grid(), problem.voxel))
         fail(what, "its grid is not on the {} m lattice or is too far from the origin", problem.voxel);
     if (summarise(object.interest).occupied_voxels == 0) fail(what, "its volume of interest is empty in this key segment");

@@ -43,6 +43,11 @@ struct SweepObject {
     Amhv interest;  // I: the contact part
     Amhv fidelity;  // N: must never share a voxel with the other's N at the same frame
     Amhv whole;     // W: the whole body, seen by the other's view cone
+    // A's side of a multi-party stage only (docs/method.md section 11): the placed objects other
+    // than the partner, which must never share a voxel with B's whole body at the same frame.
+    // Default-constructed (no frames): no such test.
+    Amhv clearance;
+    bool has_clearance() const { return clearance.frames() > 0; }
     ConeVolume view_cone;  // empty when visibility is not asked for
     Vec3 root = Vec3::Zero();                        // C: of the whole body's aMHV
     Eigen::Vector2d facing = Eigen::Vector2d::UnitX();  // F: unit, on the floor

@@ -96,6 +96,8 @@ void SweepRun::plan_stages() {
                               Want::NoOverlap});
     }
     stages_[2].push_back({add(columns_of(A.fidelity, z_, true)), add(columns_of(B.fidelity, z_b_, true)), frames_, Want::NoOverlap});
+    if (A.has_clearance())  // multi-party: the other placed objects never meet B's whole body
+        stages_[2].push_back({add(columns_of(A.clearance, z_, true)), add(columns_of(B.whole, z_b_, true)), frames_, Want::NoOverlap});
     if (problem_.per_frame_visibility()) {
         // Each cone at frame t against the other's body at frame t, on enough frames.
         const int needed = problem_.visibility_frames;
