@@ -14,6 +14,7 @@
 #include "src/edit/frame_check.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/party_files.hpp"
+#include "src/results/scene_glb.hpp"
 
 namespace amhv::pipeline {
 
@@ -172,6 +173,20 @@ EditResult edit_stage(const PartyStage& stage, ObjectSource& a, ObjectSource& b,
     }
 }
 
+// The middle output frame of every key segment (a stage's output frames are the final ones: the
+// later stages keep the group's timing), with its pair.
+std::vector<results::KeyView> key_views(const Scene& scene, const PartyEdit& party) {
+    std::vector<results::KeyView> views;
+    for (const PartyStage& stage : party.stages)
+        for (const TimelineSegment& segment : stage.edit.timeline.segments) {
+            if (!segment.key || segment.length == 0) continue;
+            const KeySegment& key = scene.segments[std::size_t(segment.key - 1)];
+            views.push_back({segment.key, segment.first + segment.length / 2, index_of(party.names, key.pair[0]), index_of(party.names, key.pair[1])});
+        }
+    std::sort(views.begin(), views.end(), [](const results::KeyView& x, const results::KeyView& y) { return x.key < y.key; });
+    return views;
+}
+
 }  // namespace
 
 PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSource>>& sources, Backends& backends, const fs::path& out,
@@ -202,12 +217,23 @@ PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSourc
     return party;
 }
 
+std::unique_ptr<ObjectSource> placed_group(const Scene& scene, const PartyEdit& placed, const std::string& partner,
+                                           std::vector<std::unique_ptr<ObjectSource>>& sources) {
+    return make_group(placed, partner, group_spec(scene, placed), sources, scene.order);
+}
+
 std::vector<PairCheck> check_pairs(const PartyEdit& edit, std::vector<std::unique_ptr<ObjectSource>>& sources, double voxel, Voxeliser& voxeliser) {
     std::vector<int> frames(std::size_t(edit.length()));
     for (int k = 0; k < edit.length(); ++k) frames[std::size_t(k)] = k;
     std::vector<PairCheck> out;
     for (std::size_t i = 0; i < edit.names.size(); ++i)
         for (std::size_t j = i + 1; j < edit.names.size(); ++j) {
+            // The first placement checked its pair at every frame, and the later ones keep its timing.
+            const std::vector<FrameCheck>* first = edit.stages.empty() ? nullptr : &edit.stages.front().edit.frame_checks;
+            if (i == 0 && j == 1 && first && int(first->size()) == edit.length()) {
+                for (const FrameCheck& c : *first) out.push_back({c.frame, i, j, c.overlap, c.gap_m});
+                continue;
+            }
             EditResult pair;
             pair.frames = {edit.frames[i], edit.frames[j]};
             for (const FrameCheck& c : check_frames(pair, frames, *sources[i], *sources[j], voxel, voxeliser))
@@ -237,6 +263,14 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     std::vector<ObjectSource*> pointers;
     for (auto& s : sources) pointers.push_back(s.get());
     if (options.frames) files.mesh_files = results::write_party_frames(out / "frames", party.names, party.frames, pointers);
+    results::write_party_key_views(out / "views", key_views(scene, party), party.frames, pointers);
+    results::Json outputs = {{"frames", options.frames}, {"scene_glb", nullptr}};
+    if (options.glb) {
+        std::vector<GlbObject> objects;
+        for (std::size_t o = 0; o < party.names.size(); ++o) objects.push_back({party.names[o], pointers[o], &party.frames[o]});
+        const double fps = scene.object(scene.order.front()).fps;
+        outputs["scene_glb"] = {{"bytes", write_scene_glb(out / "scene.glb", objects, fps).bytes}, {"fps", fps}};
+    }
     results::Json json = results::result_header(scene, backends.backend, backends.device);
     json["order"] = scene.order;
     json["order_rule"] = scene.order_rule;
@@ -248,6 +282,7 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     }
     json["output_frames"] = party.length();
     json["pairs"] = results::pair_summary(party.names, checks, scene.sampling.voxel);
+    json["outputs"] = outputs;
     if (options.timings) {
         double mhv = 0, sweep = 0, dp = 0, path = 0, check = check_seconds;
         for (const PartyStage& s : party.stages)

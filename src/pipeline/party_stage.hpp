@@ -45,6 +45,11 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const std::fil
 PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSource>>& sources, Backends& backends, const std::filesystem::path& out,
                      const EditRunOptions& options);
 
+// The placed group of the objects `placed` holds (src/scene/segment.hpp), `partner` first, as the
+// next stage sweeps against it; `sources` in the scene's placement order.
+std::unique_ptr<ObjectSource> placed_group(const Scene& scene, const PartyEdit& placed, const std::string& partner,
+                                           std::vector<std::unique_ptr<ObjectSource>>& sources);
+
 // Every pair of objects checked at every output frame.
 std::vector<PairCheck> check_pairs(const PartyEdit& edit, std::vector<std::unique_ptr<ObjectSource>>& sources, double voxel, Voxeliser& voxeliser);
 

@@ -23,7 +23,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-const std::array<std::array<std::uint8_t, 3>, 2> kColour{{{230, 120, 40}, {40, 120, 230}}};
 
 std::string segment_name(const TimelineSegment& s, int index) {
     return s.key ? fmt::format("key {}", s.key) : fmt::format("transition {}", index / 2);
@@ -194,17 +193,60 @@ int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSou
             budget::require_disk(folder, bytes + bytes / 2, fmt::format("frames/ ({} PLY files)", edit.timeline.length()),
                                  "free some disk or pass --no-frames");
         }
-        std::vector<std::array<std::uint8_t, 3>> colours(frame.both.vertices.size(), kColour[1]);
-        std::fill(colours.begin(), colours.begin() + std::ptrdiff_t(frame.vertices_from[1]), kColour[0]);
+        std::vector<std::array<std::uint8_t, 3>> colours(frame.both.vertices.size(), kObjectColours[1]);
+        std::fill(colours.begin(), colours.begin() + std::ptrdiff_t(frame.vertices_from[1]), kObjectColours[0]);
         std::vector<std::string> comments{fmt::format("amhv edit output frame {}: A = source frame {}, B = source frame {}", k,
                                                       edit.frames[0][std::size_t(k)].source, edit.frames[1][std::size_t(k)].source)};
         for (std::size_t o = 0; o < 2; ++o)
             comments.push_back(fmt::format("object {}: vertices {}..{}, faces {}..{}, colour {} {} {}", "AB"[o], frame.vertices_from[o],
-                                           frame.vertices_from[o + 1] - 1, frame.faces_from[o], frame.faces_from[o + 1] - 1, kColour[o][0],
-                                           kColour[o][1], kColour[o][2]));
+                                           frame.vertices_from[o + 1] - 1, frame.faces_from[o], frame.faces_from[o + 1] - 1, kObjectColours[o][0],
+                                           kObjectColours[o][1], kObjectColours[o][2]));
         write_ply(folder / fmt::format("{:04d}.ply", k), frame.both, colours, comments);
     }
     return edit.timeline.length();
+}
+
+void draw_side_view(const fs::path& path, const TriangleMesh& mesh, const std::vector<std::size_t>& faces_from, const Eigen::Vector2d& across) {
+    // Look across the line between the two roots, so that the two stand side by side.
+    const Eigen::Vector2d right = across.norm() > 1e-6 ? across.normalized() : Eigen::Vector2d::UnitX();
+    const Vec3 u(right.x(), right.y(), 0), view(right.y(), -right.x(), 0);  // view: from the camera into the picture
+    Eigen::AlignedBox2d extent;
+    for (const Vec3& v : mesh.vertices) extent.extend(Eigen::Vector2d(v.dot(u), v.z()));
+    extent.extend(Eigen::Vector2d(extent.min().x(), 0.0));  // the floor
+    constexpr int kWidth = 800, kHeight = 600, kMargin = 30;
+    const double scale = std::min((kWidth - 2 * kMargin) / extent.sizes().x(), (kHeight - 2 * kMargin) / extent.sizes().y());
+    const Eigen::Vector2d offset(0.5 * (kWidth - scale * extent.sizes().x()), 0.5 * (kHeight - scale * extent.sizes().y()));
+    auto pixel = [&](const Vec3& v) {
+        return Eigen::Vector2d(offset.x() + (v.dot(u) - extent.min().x()) * scale, kHeight - offset.y() - (v.z() - extent.min().y()) * scale);
+    };
+    // Painter's algorithm: far triangles first; equal depths keep mesh order (same bytes on every run).
+    std::vector<std::pair<double, std::size_t>> order(mesh.triangles.size());
+    for (std::size_t t = 0; t < order.size(); ++t) {
+        const auto& tri = mesh.triangles[t];
+        order[t] = {-(mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]).dot(view), t};
+    }
+    std::sort(order.begin(), order.end());
+    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kWidth, kHeight);
+    cairo_t* cr = cairo_create(surface);
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    const Vec3 light = Vec3(-view.x() * 0.8 + 0.3 * u.x(), -view.y() * 0.8 + 0.3 * u.y(), 0.6).normalized();
+    for (const auto& [depth, t] : order) {
+        const auto& tri = mesh.triangles[t];
+        const Vec3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+        if (normal.norm() < 1e-15 || normal.dot(view) > 0) continue;  // degenerate or facing away
+        const double shade = 0.35 + 0.65 * std::max(0.0, normal.normalized().dot(light));
+        const std::size_t object = std::size_t(std::upper_bound(faces_from.begin() + 1, faces_from.end(), t) - faces_from.begin() - 1);
+        fill_triangle(cr, {pixel(mesh.vertices[tri[0]]), pixel(mesh.vertices[tri[1]]), pixel(mesh.vertices[tri[2]])}, shade,
+                      kObjectColours[object % kObjectColours.size()]);
+    }
+    const double floor_y = pixel(Vec3(0, 0, 0)).y();
+    cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
+    cairo_set_line_width(cr, 1);
+    cairo_move_to(cr, kMargin / 2.0, floor_y + 0.5);
+    cairo_line_to(cr, kWidth - kMargin / 2.0, floor_y + 0.5);
+    cairo_stroke(cr);
+    finish_png(cr, surface, path);
 }
 
 std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
@@ -215,47 +257,8 @@ std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit,
         const int k = segment.first + segment.length / 2;
         shown.push_back(k);
         const EditedFrame frame = edited_frame(edit, k, a, b);
-        const TriangleMesh& mesh = frame.both;
-        // Look across the line between the two roots, so that the two stand side by side.
         const Eigen::Vector2d between = edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root;
-        const Eigen::Vector2d right = between.norm() > 1e-6 ? between.normalized() : Eigen::Vector2d::UnitX();
-        const Vec3 u(right.x(), right.y(), 0), view(right.y(), -right.x(), 0);  // view: from the camera into the picture
-        Eigen::AlignedBox2d extent;
-        for (const Vec3& v : mesh.vertices) extent.extend(Eigen::Vector2d(v.dot(u), v.z()));
-        extent.extend(Eigen::Vector2d(extent.min().x(), 0.0));  // the floor
-        constexpr int kWidth = 800, kHeight = 600, kMargin = 30;
-        const double scale = std::min((kWidth - 2 * kMargin) / extent.sizes().x(), (kHeight - 2 * kMargin) / extent.sizes().y());
-        const Eigen::Vector2d offset(0.5 * (kWidth - scale * extent.sizes().x()), 0.5 * (kHeight - scale * extent.sizes().y()));
-        auto pixel = [&](const Vec3& v) {
-            return Eigen::Vector2d(offset.x() + (v.dot(u) - extent.min().x()) * scale, kHeight - offset.y() - (v.z() - extent.min().y()) * scale);
-        };
-        // Painter's algorithm: far triangles first; equal depths keep mesh order (same bytes on every run).
-        std::vector<std::pair<double, std::size_t>> order(mesh.triangles.size());
-        for (std::size_t t = 0; t < order.size(); ++t) {
-            const auto& tri = mesh.triangles[t];
-            order[t] = {-(mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]).dot(view), t};
-        }
-        std::sort(order.begin(), order.end());
-        cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kWidth, kHeight);
-        cairo_t* cr = cairo_create(surface);
-        cairo_set_source_rgb(cr, 1, 1, 1);
-        cairo_paint(cr);
-        const Vec3 light = Vec3(-view.x() * 0.8 + 0.3 * u.x(), -view.y() * 0.8 + 0.3 * u.y(), 0.6).normalized();
-        for (const auto& [depth, t] : order) {
-            const auto& tri = mesh.triangles[t];
-            const Vec3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
-            if (normal.norm() < 1e-15 || normal.dot(view) > 0) continue;  // degenerate or facing away
-            const double shade = 0.35 + 0.65 * std::max(0.0, normal.normalized().dot(light));
-            fill_triangle(cr, {pixel(mesh.vertices[tri[0]]), pixel(mesh.vertices[tri[1]]), pixel(mesh.vertices[tri[2]])}, shade,
-                          kColour[t < frame.faces_from[1] ? 0 : 1]);
-        }
-        const double floor_y = pixel(Vec3(0, 0, 0)).y();
-        cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
-        cairo_set_line_width(cr, 1);
-        cairo_move_to(cr, kMargin / 2.0, floor_y + 0.5);
-        cairo_line_to(cr, kWidth - kMargin / 2.0, floor_y + 0.5);
-        cairo_stroke(cr);
-        finish_png(cr, surface, folder / fmt::format("key_{}.png", segment.key));
+        draw_side_view(folder / fmt::format("key_{}.png", segment.key), frame.both, {frame.faces_from.begin(), frame.faces_from.end()}, between);
     }
     return shown;
 }
@@ -329,7 +332,7 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
         order.emplace_back(-(q.z() + r.z() + s.z()), t);
     }
     std::sort(order.begin(), order.end());
-    const auto& colour = kColour[std::size_t(other_index)];
+    const auto& colour = kObjectColours[std::size_t(other_index)];
     for (const auto& [depth, t] : order) {
         const auto& tri = other.triangles[t];
         const Vec3 normal = (other.vertices[tri[1]] - other.vertices[tri[0]]).cross(other.vertices[tri[2]] - other.vertices[tri[0]]);
@@ -458,7 +461,7 @@ void write_paths_picture(const fs::path& svg, const fs::path& png, const EditRes
     const char* names[2] = {"A", "B"};
     for (int o = 0; o < 2; ++o) {
         const auto& frames = edit.frames[std::size_t(o)];
-        const auto colour = kColour[std::size_t(o)];
+        const auto colour = kObjectColours[std::size_t(o)];
         for (int edited = 0; edited < 2; ++edited) {
             Shape line;
             line.colour = colour;

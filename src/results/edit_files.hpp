@@ -1,6 +1,8 @@
 #pragma once
 // Files of the edited scene (docs/method.md section 10): per-frame transforms, the transformed meshes of
 // every output frame, and a top view of the original and edited root paths.
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -12,6 +14,15 @@
 #include "src/scene/segment.hpp"
 
 namespace amhv {
+
+// Object colours in meshes and pictures: A orange, B blue, then green, purple, yellow, red (cycling).
+inline constexpr std::array<std::array<std::uint8_t, 3>, 6> kObjectColours{
+    {{230, 120, 40}, {40, 120, 230}, {60, 170, 80}, {150, 80, 190}, {220, 190, 40}, {200, 60, 90}}};
+
+// `path`: `mesh` seen from the side, looking across the floor direction `across` (flat shaded, the
+// floor grey); triangles [faces_from[o], faces_from[o + 1]) in object o's colour.
+void draw_side_view(const std::filesystem::path& path, const TriangleMesh& mesh, const std::vector<std::size_t>& faces_from,
+                    const Eigen::Vector2d& across);
 
 // One object's transform at one output frame, as transforms.json gives it.
 nlohmann::ordered_json frame_transform_json(const ObjectFrameEdit& e);

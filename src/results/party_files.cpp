@@ -16,9 +16,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A, B as in the two-object files; then green, purple, yellow, ... (cycling).
-const std::array<std::array<std::uint8_t, 3>, 6> kPalette{{{230, 120, 40}, {40, 120, 230}, {60, 170, 80}, {150, 80, 190}, {220, 190, 40}, {200, 60, 90}}};
-
 std::string pair_name(const std::vector<std::string>& names, std::size_t i, std::size_t j) { return names[i] + "&" + names[j]; }
 
 }  // namespace
@@ -70,7 +67,7 @@ int write_party_frames(const fs::path& folder, const std::vector<std::string>& n
             EditResult one;
             one.frames[0] = {frames[o][std::size_t(k)]};
             const TriangleMesh mesh = placed_mesh(one, 0, 0, *sources[o]);
-            const auto& colour = kPalette[o % kPalette.size()];
+            const auto& colour = kObjectColours[o % kObjectColours.size()];
             comments.push_back(fmt::format("object {}: source frame {}, vertices {}..{}, faces {}..{}, colour {} {} {}", names[o],
                                            frames[o][std::size_t(k)].source, all.vertices.size(), all.vertices.size() + mesh.vertices.size() - 1,
                                            all.triangles.size(), all.triangles.size() + mesh.triangles.size() - 1, colour[0], colour[1], colour[2]));
@@ -84,6 +81,23 @@ int write_party_frames(const fs::path& folder, const std::vector<std::string>& n
         write_ply(folder / fmt::format("{:04d}.ply", k), all, colours, comments);
     }
     return length;
+}
+
+void write_party_key_views(const fs::path& folder, const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
+                           const std::vector<ObjectSource*>& sources) {
+    fs::create_directories(folder);
+    for (const KeyView& view : views) {
+        TriangleMesh all;
+        std::vector<std::size_t> faces_from{0};
+        for (std::size_t o = 0; o < frames.size(); ++o) {
+            EditResult one;
+            one.frames[0] = {frames[o][std::size_t(view.frame)]};
+            all.append(placed_mesh(one, 0, 0, *sources[o]));
+            faces_from.push_back(all.triangles.size());
+        }
+        const Eigen::Vector2d across = frames[view.second][std::size_t(view.frame)].edited_root - frames[view.first][std::size_t(view.frame)].edited_root;
+        draw_side_view(folder / fmt::format("key_{}.png", view.key), all, faces_from, across);
+    }
 }
 
 Json pair_summary(const std::vector<std::string>& names, const std::vector<PairRow>& rows, double voxel) {

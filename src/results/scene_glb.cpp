@@ -20,14 +20,17 @@ namespace amhv {
 
 namespace {
 
-// The performers' colours, as in the PLY frames and the pictures (A orange, B blue), linear.
-constexpr std::array<std::array<double, 4>, 2> kBaseColour{{{0.79, 0.19, 0.02, 1.0}, {0.02, 0.19, 0.79, 1.0}}};
+// The performers' colours, as in the PLY frames and the pictures (A orange, B blue, then green,
+// purple, yellow, red, cycling), linear.
+constexpr std::array<std::array<double, 4>, 6> kBaseColour{
+    {{0.79, 0.19, 0.02, 1.0}, {0.02, 0.19, 0.79, 1.0}, {0.045, 0.40, 0.08, 1.0}, {0.30, 0.08, 0.51, 1.0}, {0.72, 0.51, 0.02, 1.0}, {0.58, 0.045, 0.10, 1.0}}};
 
-void add_materials(tinygltf::Model& model) {
-    for (int o = 0; o < 2; ++o) {
+// One material per performer, first: material o is performer o's colour.
+void add_materials(tinygltf::Model& model, const std::vector<GlbObject>& objects) {
+    for (std::size_t o = 0; o < objects.size(); ++o) {
         tinygltf::Material m;
-        m.name = o == 0 ? "A" : "B";
-        m.pbrMetallicRoughness.baseColorFactor = {kBaseColour[std::size_t(o)].begin(), kBaseColour[std::size_t(o)].end()};
+        m.name = objects[o].name;
+        m.pbrMetallicRoughness.baseColorFactor = {kBaseColour[o % kBaseColour.size()].begin(), kBaseColour[o % kBaseColour.size()].end()};
         m.pbrMetallicRoughness.metallicFactor = 0.0;
         m.pbrMetallicRoughness.roughnessFactor = 0.8;
         model.materials.push_back(m);
@@ -41,7 +44,7 @@ void push_yup(std::vector<float>& out, const Vec3& v) { out.insert(out.end(), {f
 // name, colour, texture), an image per texture file (embedded, PNG or JPEG as glTF requires).
 class AppearanceMaterials {
 public:
-    AppearanceMaterials(tinygltf::Model& model, GlbBuilder& glb) : model_(model), glb_(glb) {}
+    AppearanceMaterials(tinygltf::Model& model, GlbBuilder& glb, const std::vector<GlbObject>& objects) : model_(model), glb_(glb), objects_(objects) {}
 
     int material(int object, const ObjAppearance& obj, const std::string& name) {
         const auto at = obj.materials.find(name);
@@ -50,7 +53,7 @@ public:
         const auto key = std::make_tuple(object, name, m.colour, m.texture.string());
         if (auto known = materials_.find(key); known != materials_.end()) return known->second;
         tinygltf::Material out;
-        out.name = fmt::format("{} {}", "AB"[object], name);
+        out.name = fmt::format("{} {}", objects_[std::size_t(object)].name, name);
         out.pbrMetallicRoughness.baseColorFactor = {m.colour.begin(), m.colour.end()};
         out.pbrMetallicRoughness.metallicFactor = 0.0;
         out.pbrMetallicRoughness.roughnessFactor = 0.8;
@@ -79,6 +82,7 @@ private:
 
     tinygltf::Model& model_;
     GlbBuilder& glb_;
+    const std::vector<GlbObject>& objects_;
     std::map<std::tuple<int, std::string, std::array<double, 4>, std::string>, int> materials_;
     std::map<std::filesystem::path, int> textures_;
 };
@@ -150,52 +154,69 @@ int frame_sampler(GlbBuilder& glb, tinygltf::Animation& play, int k, int frames,
     return int(play.samplers.size()) - 1;
 }
 
+// One frame node of one performer: its mesh (OBJ appearance kept), shown on output frame k only.
+// The performer's last triangle list is shared while its triangles stay the same.
+struct PerformerTrack {
+    std::vector<std::array<std::uint32_t, 3>> last_triangles;
+    int last_indices = -1;
+    bool textured = false;
+};
+
+bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbObject& object, int o, int k, PerformerTrack& track,
+                    tinygltf::Mesh& m, SceneGlbReport& report) {
+    const ObjectFrameEdit& e = (*object.frames)[std::size_t(k)];
+    m.name = fmt::format("{} frame {:04d} src {:04d}", object.name, k, e.source);
+    if (track.textured) {
+        const ObjAppearance obj = read_obj_appearance(source_frame_file(*object.source, e.source));
+        m.primitives = textured_primitives(glb, materials, obj, o, e, object.source->spec().units);
+        report.index_accessors += int(m.primitives.size());
+        return !m.primitives.empty();
+    }
+    EditResult one;
+    one.frames[0] = {e};
+    const TriangleMesh mesh = placed_mesh(one, 0, 0, *object.source);
+    if (mesh.triangles.empty()) return false;
+    if (track.last_indices < 0 || mesh.triangles != track.last_triangles) {
+        track.last_indices = glb.indices(mesh);
+        track.last_triangles = mesh.triangles;
+        ++report.index_accessors;
+    }
+    const auto [positions, normals] = glb.vertices(mesh);
+    tinygltf::Primitive primitive;
+    primitive.attributes = {{"POSITION", positions}, {"NORMAL", normals}};
+    primitive.indices = track.last_indices;
+    primitive.material = o;
+    primitive.mode = TINYGLTF_MODE_TRIANGLES;
+    m.primitives.push_back(primitive);
+    return true;
+}
+
 }  // namespace
 
 SceneGlbReport write_scene_glb(const std::filesystem::path& path, const EditResult& edit, ObjectSource& a, ObjectSource& b, double fps) {
+    return write_scene_glb(path, {{"A", &a, &edit.frames[0]}, {"B", &b, &edit.frames[1]}}, fps);
+}
+
+SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, double fps) {
     tinygltf::Model model;
     model.asset.version = "2.0";
     model.asset.generator = std::string("amhv ") + AMHV_VERSION;
-    add_materials(model);
+    add_materials(model, objects);
     GlbBuilder glb(model);
     tinygltf::Animation play;
     play.name = "play";
     tinygltf::Node root;
     root.name = "amhv edited scene";
     SceneGlbReport report;
-    ObjectSource* sources[2] = {&a, &b};
-    std::array<std::vector<std::array<std::uint32_t, 3>>, 2> last_triangles;
-    std::array<int, 2> last_indices{-1, -1};
-    const std::array<bool, 2> textured{has_obj_appearance(a), has_obj_appearance(b)};
-    AppearanceMaterials materials(model, glb);
-    const int frames = edit.timeline.length();
+    std::vector<PerformerTrack> tracks(objects.size());
+    for (std::size_t o = 0; o < objects.size(); ++o) tracks[o].textured = has_obj_appearance(*objects[o].source);
+    AppearanceMaterials materials(model, glb, objects);
+    const int frames = objects.empty() ? 0 : int(objects.front().frames->size());
     for (int k = 0; k < frames; ++k) {
         const int sampler = frame_sampler(glb, play, k, frames, fps);
-        for (int o = 0; o < 2; ++o) {
-            const int source = edit.frames[std::size_t(o)][std::size_t(k)].source;
+        for (std::size_t o = 0; o < objects.size(); ++o) {
             tinygltf::Mesh m;
-            m.name = fmt::format("{} frame {:04d} src {:04d}", "AB"[o], k, source);
-            if (textured[std::size_t(o)]) {
-                const ObjAppearance obj = read_obj_appearance(source_frame_file(*sources[o], source));
-                m.primitives = textured_primitives(glb, materials, obj, o, edit.frames[std::size_t(o)][std::size_t(k)], sources[o]->spec().units);
-                report.index_accessors += int(m.primitives.size());
-                if (m.primitives.empty()) continue;
-            } else {
-                const TriangleMesh mesh = placed_mesh(edit, k, o, *sources[o]);
-                if (mesh.triangles.empty()) continue;
-                if (last_indices[std::size_t(o)] < 0 || mesh.triangles != last_triangles[std::size_t(o)]) {
-                    last_indices[std::size_t(o)] = glb.indices(mesh);
-                    last_triangles[std::size_t(o)] = mesh.triangles;
-                    ++report.index_accessors;
-                }
-                const auto [positions, normals] = glb.vertices(mesh);
-                tinygltf::Primitive primitive;
-                primitive.attributes = {{"POSITION", positions}, {"NORMAL", normals}};
-                primitive.indices = last_indices[std::size_t(o)];
-                primitive.material = o;
-                primitive.mode = TINYGLTF_MODE_TRIANGLES;
-                m.primitives.push_back(primitive);
-            }
+            if (!add_frame_mesh(glb, materials, objects[o], int(o), k, tracks[o], m, report)) continue;
             model.meshes.push_back(m);
             tinygltf::Node node;
             node.name = m.name;

@@ -7,6 +7,8 @@
 // index accessor. glTF is y-up: the scene's (x, y, z) is written as (x, z, -y), in metres.
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "src/edit/edit.hpp"
 #include "src/scene/segment.hpp"
@@ -19,7 +21,16 @@ struct SceneGlbReport {
     std::uint64_t bytes = 0;   // the file's size
 };
 
+// One performer of the scene: its name, its frames and where the edit put each.
+struct GlbObject {
+    std::string name;
+    ObjectSource* source = nullptr;
+    const std::vector<ObjectFrameEdit>* frames = nullptr;  // per output frame
+};
+
 // Writes `path` (fails naming it when it cannot). `fps`: the output's frame rate.
 SceneGlbReport write_scene_glb(const std::filesystem::path& path, const EditResult& edit, ObjectSource& a, ObjectSource& b, double fps);
+// Any number of performers (a multi-party edit); the two-object call is this one with A and B.
+SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, double fps);
 
 }  // namespace amhv

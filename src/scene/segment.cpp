@@ -485,12 +485,16 @@ Amhv member_volume(ObjectSource& group, bool partner, int first, const std::vect
     return voxelise(prepare_voxelisation(pointers, grid), voxeliser);
 }
 
-// A placed group's side of a key segment (docs/method.md section 11): the pose lattice and the
-// descriptors (distance, angles) are about the partner's root, not the group's centroid, and the
-// other members are the clearance volume B's whole body must keep out of.
+// A placed group's side of a key segment (docs/method.md section 11): its whole body is the
+// partner's (what the newcomer's view cone must see), the pose lattice and the descriptors
+// (distance, angles) are about the partner's root, not the group's centroid, and the other members
+// are the clearance volume B's whole body must keep out of. (The fidelity volume, derived before,
+// may hold them too.)
 void group_side(SweepObject& a, ObjectSource& group, int first, const std::vector<int>& relative, Voxeliser& voxeliser) {
-    a.root = summarise(member_volume(group, true, first, relative, a.whole.grid(), voxeliser)).root;
+    Amhv partner = member_volume(group, true, first, relative, a.whole.grid(), voxeliser);
+    a.root = summarise(partner).root;
     if (group.members().size() > 1) a.clearance = member_volume(group, false, first, relative, a.whole.grid(), voxeliser);
+    a.whole = std::move(partner);
 }
 
 }  // namespace
