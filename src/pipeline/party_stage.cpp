@@ -278,6 +278,7 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     for (const PartyStage& stage : party.stages) {
         results::Json s = {{"object", stage.object}, {"against", stage.against}, {"segments", stage.sweep.segments}};
         results::add_edit(s, stage.edit, {});
+        s.erase("output");  // the files are the whole scene's ("outputs" below), not the stage's
         json["stages"].push_back(s);
     }
     json["output_frames"] = party.length();
