@@ -272,5 +272,24 @@ TEST(Party, BruteForceOverTheNewcomersPosesFindsWhatTheSequentialSweepFinds) {
     EXPECT_GT(pair_solutions, brute_solutions) << "B rules out none of the poses A alone allows: the test proves little";
 }
 
+
+// A placement with no solution stops the edit with one line naming the object, the objects it was
+// placed against, the key segment, the constraint that emptied it and the pose that came nearest;
+// nothing is written.
+TEST(Party, AnEmptyPlacementNamesTheObjectTheSegmentAndItsNearestMiss) {
+    test::TempDir dir;
+    std::string text = test::read_text(test::source_dir() / "data/scenes/trio.toml");
+    const std::string cmu = (test::source_dir() / "data/cmu").string();
+    for (std::size_t at; (at = text.find("\"../cmu")) != std::string::npos;) text.replace(at, 7, "\"" + cmu);
+    text += "visibility = { enabled = true, half_angle_deg = 45.0 }\n";  // the high five's: A looks ahead
+    const fs::path scene = write_scene(dir, text);
+    const auto run = test::run_amhv(fmt::format("edit '{}' --no-frames --no-glb --out '{}'", scene.string(), (dir.path() / "out").string()));
+    EXPECT_EQ(test::one_line_error(run), 1) << run.output;
+    for (const char* expected : {"placing C against A, B: ", "key segment 2 (0&0b) has no solution", "visibility 10281", "keep C's captured placement",
+                                 "its nearest miss", "fails visibility"})
+        EXPECT_NE(run.output.find(expected), std::string::npos) << expected << "\n" << run.output;
+    EXPECT_FALSE(fs::exists(dir.path() / "out"));
+}
+
 }  // namespace
 }  // namespace amhv

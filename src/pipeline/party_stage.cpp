@@ -164,12 +164,25 @@ void add_stage(PartyEdit& party, const PartyStage& stage, bool first) {
     party.frames.push_back(stage.edit.frames[1]);
 }
 
+// The pose that came nearest in the first empty group of a stage, for its error (result.json is not
+// kept when the edit stops, and `amhv probe` takes two objects).
+std::string nearest_miss(const SweepStage& sweep) {
+    for (const results::Json& s : sweep.segments) {
+        if (!s.contains("near_misses") || s["near_misses"].empty()) continue;
+        const results::Json& m = s["near_misses"][0];
+        return fmt::format("; its nearest miss, x = {:.2f} m, y = {:.2f} m, theta = {:.0f} deg, fails {} on {} of {} frames", m["x"].get<double>(),
+                           m["y"].get<double>(), m["theta_deg"].get<double>(), m["fails"].get<std::string>(), m["frames_failed"].size(),
+                           m["frames"].get<int>());
+    }
+    return "";
+}
+
 // One stage's edit; an error names the object being placed and the ones it is placed against.
 EditResult edit_stage(const PartyStage& stage, ObjectSource& a, ObjectSource& b, Backends& backends, const EditOptions& options) {
     try {
         return edit_scene(stage.scene, stage.sweep.sweeps, a, b, backends.voxeliser, options);
     } catch (const Error& e) {
-        throw Error(fmt::format("placing {} against {}: {}", stage.object, fmt::join(stage.against, ", "), e.what()));
+        throw Error(fmt::format("placing {} against {}: {}{}", stage.object, fmt::join(stage.against, ", "), e.what(), nearest_miss(stage.sweep)));
     }
 }
 
