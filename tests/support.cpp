@@ -114,12 +114,8 @@ MeshFrame moved_parts(ObjectSource& source, const nlohmann::json& transform, boo
     MeshFrame out;
     for (const BodyPart& part : source.frame_parts(transform.at("source").get<int>()))
         if (keep(part.name)) out.mesh.append(part.mesh);
-    const Eigen::Rotation2Dd rotation(transform.at("yaw_deg").get<double>() * std::numbers::pi / 180);
     const Eigen::Vector2d shift(transform.at("x").get<double>(), transform.at("y").get<double>());
-    for (Vec3& v : out.mesh.vertices) {
-        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + shift;
-        v = Vec3(p.x(), p.y(), v.z() + transform.value("z", 0.0));
-    }
+    out.mesh = moved_into_scene(std::move(out.mesh), transform.at("yaw_deg").get<double>() * std::numbers::pi / 180, shift, transform.value("z", 0.0));
     out.source = fmt::format("source frame {}", transform.at("source").get<int>());
     return out;
 }

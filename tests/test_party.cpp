@@ -29,51 +29,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The CMU handshake (18_01 / 19_01) and a third performer from another capture (20_11, resampled to
-// 120 fps) who high-fives A after the handshake.
+// The shipped three-person scene (data/scenes/trio.toml: the CMU handshake and a third performer
+// from another capture who high-fives A), with its data paths absolute so that it can be written
+// elsewhere; `extra_top` goes before its first table and `pair_c` replaces the high five's pair.
 std::string trio_scene(const std::string& extra_top = "", const std::string& pair_c = "pair = [\"A\", \"C\"]") {
-    const std::string cmu = (test::source_dir() / "data/cmu").string();
-    return fmt::format(R"(
-{extra}
-[sampling]
-voxel = 0.01
-angle_step_deg = 2.0
-
-[objects.A]
-bvh = "{cmu}/18_01.bvh"
-frames = [1, 303]
-
-[objects.B]
-bvh = "{cmu}/19_01.bvh"
-frames = [1, 303]
-placement = {{ x = 4.0, y = -3.0, yaw_deg = 120.0 }}
-
-[objects.C]
-bvh = "{cmu}/20_11.bvh"
-fps = 120.0
-placement = {{ x = -3.0, y = 2.0, yaw_deg = -60.0 }}
-
-[[segments]]
-pair = ["A", "B"]
-a = [108, 147]
-b = [108, 147]
-type = "0&0a"
-interest = {{ A = {{ parts = ["right_hand"] }}, B = {{ parts = ["right_hand"] }} }}
-fidelity = {{ A = {{ parts_except = ["right_upper_arm", "right_forearm", "right_hand"] }}, B = {{ parts_except = ["right_upper_arm", "right_forearm", "right_hand"] }} }}
-visibility = {{ enabled = true, half_angle_deg = 30.0 }}
-prefer = {{ distance_m = 0.7, thetaA_deg = 0.0, thetaB_deg = 0.0 }}
-
-[[segments]]
-{pair_c}
-a = [196, 286]
-b = [80, 170]
-type = "0&0b"
-interest = {{ A = {{ parts = ["right_hand"] }}, C = {{ parts = ["right_hand"] }} }}
-fidelity = {{ A = {{ parts_except = ["right_upper_arm", "right_forearm", "right_hand"] }}, C = {{ parts_except = ["right_upper_arm", "right_forearm", "right_hand"] }} }}
-visibility = {{ enabled = true, half_angle_deg = 45.0 }}
-prefer = {{ distance_m = 0.9 }}
-)",
-                       fmt::arg("extra", extra_top), fmt::arg("cmu", cmu), fmt::arg("pair_c", pair_c));
+    std::string text = test::read_text(test::source_dir() / "data/scenes/trio.toml");
+    const std::string cmu = fmt::format("\"{}", (test::source_dir() / "data/cmu").string());
+    for (std::size_t at; (at = text.find("\"../cmu")) != std::string::npos;) text.replace(at, 7, cmu);
+    const std::string high_five = "pair = [\"A\", \"C\"]";
+    text.replace(text.find(high_five), high_five.size(), pair_c);
+    return extra_top + "\n" + text;
 }
 
 fs::path write_scene(const test::TempDir& dir, const std::string& text) {
@@ -112,19 +77,21 @@ TEST(Party, BadPairsAndOrdersGetOneLineNamingTheKey) {
     test::TempDir dir;
     struct Case {
         std::string top, pair, expect;
+        std::string from = "", to = "";  // a change to the scene's text
     };
     const Case cases[] = {
         {"", "", "segments[2].pair: is missing"},
         {"", "pair = [\"A\", \"D\"]", "names 'D', which is not one of the scene's objects"},
-        {"", "pair = [\"C\", \"A\"]", "segments[2].a: frames 196..286 are beyond object C's frames 0..228"},
+        {"", "pair = [\"C\", \"A\"]", "segments[2].a: frames 213..303 are beyond object C's frames 0..228"},
         {"order = [\"B\", \"A\", \"C\"]", "pair = [\"A\", \"C\"]", "order: must start with the anchor, A"},
         {"order = [\"A\", \"C\"]", "pair = [\"A\", \"C\"]", "order: must list every object once"},
-        {"[truth]\nx = 0.0", "pair = [\"A\", \"C\"]", "gives the truth per object"},
+        {"", "pair = [\"A\", \"C\"]", "gives the truth per object", "\n[truth.B]\n", "\n[truth]\n"},
     };
     for (const Case& c : cases) {
-        // A top-level key must come before the first table: put it at the top of the file.
-        const fs::path scene = write_scene(dir, trio_scene(c.top.rfind("[truth]", 0) == 0 ? "" : c.top, c.pair) +
-                                                    (c.top.rfind("[truth]", 0) == 0 ? "\n" + c.top + "\n" : ""));
+        // A top-level key must come before the first table: trio_scene puts it at the top of the file.
+        std::string text = trio_scene(c.top, c.pair);
+        if (!c.from.empty()) text.replace(text.find(c.from), c.from.size(), c.to);
+        const fs::path scene = write_scene(dir, text);
         const auto run = test::run_amhv(fmt::format("check '{}'", scene.string()));
         EXPECT_EQ(test::one_line_error(run), 1) << c.expect << "\n" << run.output;
         EXPECT_NE(run.output.find(c.expect), std::string::npos) << run.output;
@@ -236,9 +203,7 @@ TEST(Party, BruteForceOverTheNewcomersPosesFindsWhatTheSequentialSweepFinds) {
     std::vector<MeshFrame> b_meshes(std::size_t(frames.length));
     std::vector<ObjectFrame> b_frames(std::size_t(frames.length));
     for (int m = 0; m < frames.length; ++m) {
-        EditResult one;
-        one.frames[0] = {party.frames[1][std::size_t(key.a[0] + frames.frames_a[std::size_t(m)])]};
-        b_meshes[std::size_t(m)] = {placed_mesh(one, 0, 0, *sources[1]), "B"};
+        b_meshes[std::size_t(m)] = {placed_mesh(party.frames[1][std::size_t(key.a[0] + frames.frames_a[std::size_t(m)])], *sources[1]), "B"};
         b_frames[std::size_t(m)].whole = {&b_meshes[std::size_t(m)]};
     }
     ObjectParts whole;
@@ -278,10 +243,7 @@ TEST(Party, BruteForceOverTheNewcomersPosesFindsWhatTheSequentialSweepFinds) {
 // nothing is written.
 TEST(Party, AnEmptyPlacementNamesTheObjectTheSegmentAndItsNearestMiss) {
     test::TempDir dir;
-    std::string text = test::read_text(test::source_dir() / "data/scenes/trio.toml");
-    const std::string cmu = (test::source_dir() / "data/cmu").string();
-    for (std::size_t at; (at = text.find("\"../cmu")) != std::string::npos;) text.replace(at, 7, "\"" + cmu);
-    text += "visibility = { enabled = true, half_angle_deg = 45.0 }\n";  // the high five's: A looks ahead
+    const std::string text = trio_scene() + "visibility = { enabled = true, half_angle_deg = 45.0 }\n";  // the high five's: A looks ahead
     const fs::path scene = write_scene(dir, text);
     const auto run = test::run_amhv(fmt::format("edit '{}' --no-frames --no-glb --out '{}'", scene.string(), (dir.path() / "out").string()));
     EXPECT_EQ(test::one_line_error(run), 1) << run.output;

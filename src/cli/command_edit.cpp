@@ -39,12 +39,12 @@ void report_party(const pipeline::PartyEdit& party, const std::filesystem::path&
 void run_edit(const EditArguments& args) {
     const auto start = std::chrono::steady_clock::now();
     Scene scene = load_scene(args.scene);
-    if (!args.body.empty())
-        for (SceneObject* o : {&scene.a, &scene.b})
-            if (!o->bvh.empty()) o->body = parse_body_kind(args.body, "--body");
-    if (!args.body.empty())
+    if (!args.body.empty()) {
         for (SceneObject& o : scene.objects)
             if (!o.bvh.empty()) o.body = parse_body_kind(args.body, "--body");
+        scene.a = scene.object(scene.a.name);  // the edited pair's copies follow
+        scene.b = scene.object(scene.b.name);
+    }
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);

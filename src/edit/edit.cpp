@@ -52,16 +52,14 @@ Vec3 sweep_root(const Vec3& root, double voxel) {
     return out;
 }
 
-TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source) {
-    const ObjectFrameEdit& e = edit.frames[std::size_t(object)][std::size_t(k)];
+TriangleMesh placed_mesh(const ObjectFrameEdit& e, ObjectSource& source) {
     TriangleMesh mesh;
     for (const BodyPart& part : source.frame_parts(e.source)) mesh.append(part.mesh);
-    const Eigen::Rotation2Dd rotation(e.yaw);
-    for (Vec3& v : mesh.vertices) {
-        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + e.translation;
-        v = Vec3(p.x(), p.y(), v.z() + e.lift);
-    }
-    return mesh;
+    return moved_into_scene(std::move(mesh), e.yaw, e.translation, e.lift);
+}
+
+TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source) {
+    return placed_mesh(edit.frames[std::size_t(object)][std::size_t(k)], source);
 }
 
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {

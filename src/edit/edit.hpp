@@ -117,6 +117,8 @@ inline constexpr double kRuleOutRadius = 0.15;
 // Object `object`'s (0 = A, 1 = B) mesh at output frame k, moved into the scene (the frame's
 // rigid transform and lift).
 TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource& source);
+// One object's mesh at one output frame `e`, moved into the scene.
+TriangleMesh placed_mesh(const ObjectFrameEdit& e, ObjectSource& source);
 
 // Roots (centroid of the voxels of edge `voxel`) of the given frames of `object`, by `voxeliser`.
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser);

@@ -238,11 +238,11 @@ std::unique_ptr<ObjectSource> placed_group(const Scene& scene, const PartyEdit& 
 std::vector<PairCheck> check_pairs(const PartyEdit& edit, std::vector<std::unique_ptr<ObjectSource>>& sources, double voxel, Voxeliser& voxeliser) {
     std::vector<int> frames(std::size_t(edit.length()));
     for (int k = 0; k < edit.length(); ++k) frames[std::size_t(k)] = k;
+    // The first placement checked its pair at every frame, and the later ones keep its timing.
+    const std::vector<FrameCheck>* first = edit.stages.empty() ? nullptr : &edit.stages.front().edit.frame_checks;
     std::vector<PairCheck> out;
     for (std::size_t i = 0; i < edit.names.size(); ++i)
         for (std::size_t j = i + 1; j < edit.names.size(); ++j) {
-            // The first placement checked its pair at every frame, and the later ones keep its timing.
-            const std::vector<FrameCheck>* first = edit.stages.empty() ? nullptr : &edit.stages.front().edit.frame_checks;
             if (i == 0 && j == 1 && first && int(first->size()) == edit.length()) {
                 for (const FrameCheck& c : *first) out.push_back({c.frame, i, j, c.overlap, c.gap_m});
                 continue;

@@ -64,9 +64,7 @@ int write_party_frames(const fs::path& folder, const std::vector<std::string>& n
         std::vector<std::array<std::uint8_t, 3>> colours;
         std::vector<std::string> comments{fmt::format("amhv edit output frame {}", k)};
         for (std::size_t o = 0; o < names.size(); ++o) {
-            EditResult one;
-            one.frames[0] = {frames[o][std::size_t(k)]};
-            const TriangleMesh mesh = placed_mesh(one, 0, 0, *sources[o]);
+            const TriangleMesh mesh = placed_mesh(frames[o][std::size_t(k)], *sources[o]);
             const auto& colour = kObjectColours[o % kObjectColours.size()];
             comments.push_back(fmt::format("object {}: source frame {}, vertices {}..{}, faces {}..{}, colour {} {} {}", names[o],
                                            frames[o][std::size_t(k)].source, all.vertices.size(), all.vertices.size() + mesh.vertices.size() - 1,
@@ -90,9 +88,7 @@ void write_party_key_views(const fs::path& folder, const std::vector<KeyView>& v
         TriangleMesh all;
         std::vector<std::size_t> faces_from{0};
         for (std::size_t o = 0; o < frames.size(); ++o) {
-            EditResult one;
-            one.frames[0] = {frames[o][std::size_t(view.frame)]};
-            all.append(placed_mesh(one, 0, 0, *sources[o]));
+            all.append(placed_mesh(frames[o][std::size_t(view.frame)], *sources[o]));
             faces_from.push_back(all.triangles.size());
         }
         const Eigen::Vector2d across = frames[view.second][std::size_t(view.frame)].edited_root - frames[view.first][std::size_t(view.frame)].edited_root;

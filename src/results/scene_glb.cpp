@@ -172,9 +172,7 @@ bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbOb
         report.index_accessors += int(m.primitives.size());
         return !m.primitives.empty();
     }
-    EditResult one;
-    one.frames[0] = {e};
-    const TriangleMesh mesh = placed_mesh(one, 0, 0, *object.source);
+    const TriangleMesh mesh = placed_mesh(e, *object.source);
     if (mesh.triangles.empty()) return false;
     if (track.last_indices < 0 || mesh.triangles != track.last_triangles) {
         track.last_indices = glb.indices(mesh);

@@ -181,17 +181,18 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
 
 namespace {
 
-TriangleMesh moved(const TriangleMesh& mesh, const MemberFrame& f) {
-    TriangleMesh out = mesh;
-    const Eigen::Rotation2Dd rotation(f.yaw);
-    for (Vec3& v : out.vertices) {
-        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + f.translation;
-        v = Vec3(p.x(), p.y(), v.z() + f.lift);
-    }
-    return out;
-}
+TriangleMesh moved(const TriangleMesh& mesh, const MemberFrame& f) { return moved_into_scene(mesh, f.yaw, f.translation, f.lift); }
 
 }  // namespace
+
+TriangleMesh moved_into_scene(TriangleMesh mesh, double yaw, const Eigen::Vector2d& translation, double lift) {
+    const Eigen::Rotation2Dd rotation(yaw);
+    for (Vec3& v : mesh.vertices) {
+        const Eigen::Vector2d p = rotation * Eigen::Vector2d(v.x(), v.y()) + translation;
+        v = Vec3(p.x(), p.y(), v.z() + lift);
+    }
+    return mesh;
+}
 
 ObjectSource::ObjectSource(const SceneObject& spec, std::vector<GroupMember> members) : spec_(spec), members_(std::move(members)) {
     if (members_.empty()) throw Error("a placed group needs at least one member");

@@ -26,6 +26,9 @@ struct MemberFrame {
     double facing = 0;                               // the frame's facing in the scene (radians)
 };
 
+// `mesh` (capture frame) moved into the scene: p -> R(yaw) p + translation on the floor, z + lift.
+TriangleMesh moved_into_scene(TriangleMesh mesh, double yaw, const Eigen::Vector2d& translation, double lift);
+
 // One placed object of a group: its source and where it is at each of the group's frames.
 struct GroupMember {
     ObjectSource* source = nullptr;
