@@ -1,6 +1,8 @@
 #include "support.hpp"
 
 #include "host/reference/voxelise_reference.hpp"
+#include "src/io/bvh.hpp"
+#include "src/io/mesh_sequence.hpp"
 #include "src/scene/scene.hpp"
 
 #include <Eigen/Geometry>
@@ -25,6 +27,45 @@ gpu::Context& context() {
     // cannot be told apart once the loader has unloaded them; the main job runs them).
     const char* setting = std::getenv("AMHV_VALIDATION");
     static gpu::Context instance(gpu::ContextOptions{.validation = !(setting && std::string(setting) == "0")});
+    return instance;
+}
+
+// NAME.bvh of each object re-imported: one frame per output frame at the take's rate; every
+// joint (the root and the head) where transforms.json puts the source frame's joint in the scene;
+// every channel but the root's as captured.
+void expect_edited_takes(const std::filesystem::path& out, const std::vector<std::pair<std::string, const SceneObject*>>& objects,
+                         const nlohmann::json& transforms) {
+    for (const auto& [name, spec] : objects) {
+        ObjectSource source(*spec);
+        const BvhMotion& captured = *source.motion();
+        const BvhMotion edited = read_bvh(out / (name + ".bvh"));
+        ASSERT_EQ(edited.frame_count, transforms.at("frames").get<int>()) << name;
+        EXPECT_NEAR(edited.frame_time, captured.frame_time, 1e-8);
+        const int head = captured.joint_index("Head");
+        ASSERT_GE(head, 0);
+        const BvhJoint& root = captured.joints[0];
+        for (int k : {0, 60, 120, 200, edited.frame_count - 1}) {
+            const auto& t = transforms.at("output").at(std::size_t(k)).at(name);
+            const int from = t.at("source").get<int>();
+            const Eigen::Rotation2Dd yaw(t.at("yaw_deg").get<double>() * std::numbers::pi / 180);
+            const auto now = edited.global_transforms(k), then = captured.global_transforms(from);
+            for (int j : {0, head}) {
+                const Vec3 p = to_scene_point(then[std::size_t(j)].translation(), spec->units);
+                const Eigen::Vector2d xy = yaw * Eigen::Vector2d(p.x(), p.y()) + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
+                const Vec3 expected(xy.x(), xy.y(), p.z() + t.at("z").get<double>());
+                EXPECT_LT((to_scene_point(now[std::size_t(j)].translation(), spec->units) - expected).norm(), 1e-4) << name << " frame " << k << " joint " << j;
+            }
+            for (int c = 0; c < captured.channel_count; ++c) {
+                if (c >= root.first_channel && c < root.first_channel + int(root.channels.size())) continue;
+                EXPECT_NEAR(edited.values[std::size_t(k * edited.channel_count + c)], captured.values[std::size_t(from * captured.channel_count + c)], 1e-6);
+            }
+        }
+    }
+}
+
+gpu::Context& staged_context() {
+    const char* setting = std::getenv("AMHV_VALIDATION");
+    static gpu::Context instance(gpu::ContextOptions{.validation = !(setting && std::string(setting) == "0"), .staged_transfers = true});
     return instance;
 }
 

@@ -17,6 +17,12 @@ namespace amhv::test {
 
 // One Vulkan context for the whole test binary, validation layers on.
 gpu::Context& context();
+// NAME.bvh of each (NAME, object) in `out` against transforms.json: the edited take (docs/scenes.md).
+void expect_edited_takes(const std::filesystem::path& out, const std::vector<std::pair<std::string, const SceneObject*>>& objects,
+                         const nlohmann::json& transforms);
+// A second context on the same device with staged transfers (ContextOptions::staged_transfers):
+// the discrete-GPU memory path, device-local buffers moved by copies, on any device.
+gpu::Context& staged_context();
 
 // Fails the current test if the validation layers reported anything since the last call.
 void expect_no_validation_messages();

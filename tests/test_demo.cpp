@@ -47,39 +47,6 @@ int pixels_of(const fs::path& png, int colour, double radius) {
     return count;
 }
 
-// A.bvh and B.bvh re-imported: one frame per output frame at the take's rate; every joint (the
-// root and the head) where transforms.json puts the source frame's joint in the scene; every
-// channel but the root's as captured.
-void expect_edited_takes(const fs::path& out, const Scene& scene, const nlohmann::json& transforms) {
-    const SceneObject* specs[2] = {&scene.a, &scene.b};
-    for (int o = 0; o < 2; ++o) {
-        ObjectSource source(*specs[o]);
-        const BvhMotion& captured = *source.motion();
-        const BvhMotion edited = read_bvh(out / fmt::format("{}.bvh", "AB"[o]));
-        ASSERT_EQ(edited.frame_count, transforms.at("frames").get<int>());
-        EXPECT_NEAR(edited.frame_time, captured.frame_time, 1e-8);
-        const int head = captured.joint_index("Head");
-        ASSERT_GE(head, 0);
-        const BvhJoint& root = captured.joints[0];
-        for (int k : {0, 60, 120, 200, edited.frame_count - 1}) {
-            const auto& t = transforms.at("output").at(std::size_t(k)).at(o == 0 ? "A" : "B");
-            const int from = t.at("source").get<int>();
-            const Eigen::Rotation2Dd yaw(t.at("yaw_deg").get<double>() * std::numbers::pi / 180);
-            const auto now = edited.global_transforms(k), then = captured.global_transforms(from);
-            for (int j : {0, head}) {
-                const Vec3 p = to_scene_point(then[std::size_t(j)].translation(), specs[o]->units);
-                const Eigen::Vector2d xy = yaw * Eigen::Vector2d(p.x(), p.y()) + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
-                const Vec3 expected(xy.x(), xy.y(), p.z() + t.at("z").get<double>());
-                EXPECT_LT((to_scene_point(now[std::size_t(j)].translation(), specs[o]->units) - expected).norm(), 1e-4) << "AB"[o] << " frame " << k << " joint " << j;
-            }
-            for (int c = 0; c < captured.channel_count; ++c) {
-                if (c >= root.first_channel && c < root.first_channel + int(root.channels.size())) continue;
-                EXPECT_NEAR(edited.values[std::size_t(k * edited.channel_count + c)], captured.values[std::size_t(from * captured.channel_count + c)], 1e-6);
-            }
-        }
-    }
-}
-
 TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     test::TempDir dir;
     const fs::path out = dir.path() / "demo";
@@ -144,7 +111,7 @@ TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     const auto valid = test::validate_gltf(out / "scene.glb");
     EXPECT_EQ(valid.exit_code, 0) << valid.output;
     EXPECT_NE(valid.output.find(": 0 errors"), std::string::npos) << valid.output;
-    expect_edited_takes(out, scene, transforms);
+    test::expect_edited_takes(out, {{"A", &scene.a}, {"B", &scene.b}}, transforms);
 }
 
 // The second real pair (CMU 20/21, a high five while passing), read as shipped: no T-pose, other

@@ -146,6 +146,18 @@ TEST(Party, TheThreePersonSceneKeepsEveryPairApart) {
     EXPECT_EQ(rows, 3 * 303);
     EXPECT_EQ(std::distance(fs::directory_iterator(out / "frames"), fs::directory_iterator()), 303);
     EXPECT_TRUE(fs::is_regular_file(out / "views/key_1.png") && fs::is_regular_file(out / "views/key_2.png"));
+    // Eye views: each of a key segment's pair, seeing every other performer.
+    for (const char* view : {"key_1_from_A.png", "key_1_from_B.png", "key_2_from_A.png", "key_2_from_C.png"})
+        EXPECT_TRUE(fs::is_regular_file(out / "views" / view)) << view;
+    EXPECT_FALSE(fs::exists(out / "views/key_2_from_B.png"));
+    // paths.svg: every performer's path, each with the key segments it takes part in.
+    const std::string paths = test::read_text(out / "paths.svg");
+    EXPECT_NE(paths.find("A orange, B blue, C green"), std::string::npos);
+    for (const char* label : {">A1<", ">B1<", ">A2<", ">C2<"}) EXPECT_NE(paths.find(label), std::string::npos) << label;
+    EXPECT_EQ(paths.find(">B2<"), std::string::npos);
+    EXPECT_TRUE(fs::is_regular_file(out / "paths.png"));
+    // The edited takes: A.bvh, B.bvh and C.bvh, each where transforms.json puts its frames.
+    test::expect_edited_takes(out, {{"A", &loaded.object("A")}, {"B", &loaded.object("B")}, {"C", &loaded.object("C")}}, transforms);
     // scene.glb: valid for the Khronos validator, every performer on every frame.
     const auto valid = test::validate_gltf(out / "scene.glb");
     EXPECT_NE(valid.output.find(": 0 errors, 0 warnings"), std::string::npos) << valid.output;

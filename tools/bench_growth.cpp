@@ -81,6 +81,7 @@ int measure(const std::string& scene_file, int segment, double voxel, double ste
                                  s.seconds_per_stage[std::size_t(k)], s.poses_per_stage[std::size_t(k)], s.maps_per_stage[std::size_t(k)],
                                  s.pulled_runs_per_stage[std::size_t(k)], s.run_pairs_per_stage[std::size_t(k)], s.blocks_per_stage[std::size_t(k)],
                                  s.pose_tests_per_stage[std::size_t(k)]);
+    std::cerr << fmt::format("waiting for the device: {:.3f} s of {:.3f} s, {} submits\n", s.device_wait_seconds, sweep, s.submits);
     std::cout << fmt::format("{},{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{},{},{},{},{:.0f}\n", voxel, step, problem.range.size(),
                              result.solutions, mhv, sweep, s.seconds_per_stage[0], s.seconds_per_stage[1], s.seconds_per_stage[2],
                              s.seconds_per_stage[3], pairs, tests, pulled, s.submits, peak_mib());

@@ -32,7 +32,7 @@ void report_party(const pipeline::PartyEdit& party, const std::filesystem::path&
             std::cout << fmt::format("key segment {}: {} against {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
                                      stage.object, fmt::join(stage.against, "+"), k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y,
                                      k.chosen.theta_deg, k.chosen.distance);
-    std::cout << fmt::format("wrote {}/: {} objects, {} output frames (transforms.json, frames.csv{}{}, views/key_N.png, result.json)\n", target.string(),
+    std::cout << fmt::format("wrote {}/: {} objects, {} output frames (transforms.json, frames.csv{}{}, paths.svg, paths.png, views/key_N*.png, result.json)\n", target.string(),
                              party.names.size(), party.length(), options.glb ? ", scene.glb" : "", options.frames ? ", frames/NNNN.ply" : "");
 }
 

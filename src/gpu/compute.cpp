@@ -83,6 +83,43 @@ std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::
     return buffer;
 }
 
+std::unique_ptr<Buffer> upload_for_kernels(Context& context, const void* data, std::size_t bytes) {
+    if (!context.staged_transfers()) return upload_to_host(context, data, bytes);
+    // A bounded staging buffer, so that uploading a volume does not hold it twice in host memory.
+    constexpr std::size_t kStagingBytes = std::size_t(64) << 20;
+    auto buffer = std::make_unique<Buffer>(context, std::max<vk::DeviceSize>(bytes, 16), Buffer::Memory::Device);
+    if (bytes == 0) return buffer;
+    Buffer staging(context, std::min(bytes, kStagingBytes), Buffer::Memory::Host);
+    Sequence sequence(context);
+    for (std::size_t done = 0; done < bytes; done += kStagingBytes) {
+        const std::size_t part = std::min(kStagingBytes, bytes - done);
+        std::memcpy(staging.mapped<std::uint8_t>().data(), static_cast<const std::uint8_t*>(data) + done, part);
+        sequence.copy(staging, 0, *buffer, done, part);
+        // Later submits on this queue read it (and the next part reuses the staging buffer).
+        sequence.barrier();
+        sequence.submit_and_wait();
+    }
+    return buffer;
+}
+
+void MirroredBuffer::ensure(Context& context, vk::DeviceSize bytes) {
+    staged_ = context.staged_transfers();
+    if (staged_) ensure_capacity(context, device_, bytes, Buffer::Memory::Device);
+    ensure_host_capacity(context, host_, bytes);
+}
+
+void MirroredBuffer::copy_to_device(Sequence& sequence, vk::DeviceSize bytes) const {
+    if (!staged_ || bytes == 0) return;
+    sequence.copy(*host_, 0, *device_, 0, std::min(bytes, device_->size()));
+    sequence.barrier();  // the copy lands before the kernels read it
+}
+
+void MirroredBuffer::copy_to_host(Sequence& sequence, vk::DeviceSize bytes) const {
+    if (!staged_ || bytes == 0) return;
+    sequence.barrier();  // the kernels' writes land before the copy reads them
+    sequence.copy(*device_, 0, *host_, 0, std::min(bytes, device_->size()));
+}
+
 namespace {
 
 vk::DescriptorType descriptor_type(Binding binding) {
@@ -201,6 +238,10 @@ Sequence::Sequence(Context& context)
 
 void Sequence::fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pattern) {
     commands_.fillBuffer(buffer.handle(), 0, std::min(bytes, buffer.size()) & ~vk::DeviceSize(3), pattern);
+}
+
+void Sequence::copy(const Buffer& from, vk::DeviceSize from_offset, const Buffer& to, vk::DeviceSize to_offset, vk::DeviceSize bytes) {
+    commands_.copyBuffer(from.handle(), to.handle(), vk::BufferCopy{.srcOffset = from_offset, .dstOffset = to_offset, .size = bytes});
 }
 
 void Sequence::use(Kernel& kernel, const BoundBuffers& set, const void* push, std::uint32_t bytes) {

@@ -48,6 +48,9 @@ void ensure_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::Devi
 void ensure_host_capacity(Context& context, std::unique_ptr<Buffer>& buffer, vk::DeviceSize bytes);
 // A new host buffer holding a copy of `bytes` bytes at `data`.
 std::unique_ptr<Buffer> upload_to_host(Context& context, const void* data, std::size_t bytes);
+// A copy of `bytes` bytes at `data` for kernels to read: with staged transfers, device-local memory
+// filled through a bounded host staging buffer (and ready for any later submit); else host memory.
+std::unique_ptr<Buffer> upload_for_kernels(Context& context, const void* data, std::size_t bytes);
 
 // How a shader sees one binding. Texel views read through the sampler path: on lavapipe a
 // storage-buffer access runs lane by lane, a texel fetch gathers all lanes at once.
@@ -89,12 +92,42 @@ private:
     vk::raii::Pipeline pipeline_;
 };
 
+class Sequence;
+
+// A buffer that the host and kernels both use. With staged transfers it is a device-local buffer
+// and its host mirror, moved by copies recorded in a sequence; else one host buffer, and the copies
+// are nothing.
+class MirroredBuffer {
+public:
+    // Grows to at least `bytes` (its contents are not kept when it grows).
+    void ensure(Context& context, vk::DeviceSize bytes);
+    // What the kernels bind and the sequence fills.
+    const Buffer& device() const { return staged_ ? *device_ : *host_; }
+    // What the host writes before copy_to_device and reads after copy_to_host.
+    template <typename T>
+    std::span<T> host() const {
+        return host_->mapped<T>();
+    }
+    // Records the move of the first `bytes` the host wrote to the device, before the kernels that
+    // read them.
+    void copy_to_device(Sequence& sequence, vk::DeviceSize bytes) const;
+    // Records the move of the first `bytes` the kernels wrote to the host; the host reads them after
+    // the sequence's barrier_to_host and submit.
+    void copy_to_host(Sequence& sequence, vk::DeviceSize bytes) const;
+
+private:
+    bool staged_ = false;
+    std::unique_ptr<Buffer> device_, host_;
+};
+
 class Sequence {
 public:
     explicit Sequence(Context& context);
 
     // Fills the first `bytes` of `buffer` with the 32-bit `pattern`.
     void fill(const Buffer& buffer, vk::DeviceSize bytes, std::uint32_t pattern);
+    // Copies `bytes` from `from` at `from_offset` to `to` at `to_offset`.
+    void copy(const Buffer& from, vk::DeviceSize from_offset, const Buffer& to, vk::DeviceSize to_offset, vk::DeviceSize bytes);
     // Dispatches `invocations` invocations in as many dispatches as the device's group-count limit
     // needs. `push` must start with two uint32 (base, count), which this fills in per dispatch.
     template <typename Push>

@@ -211,6 +211,7 @@ Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>(
     device_ = std::make_unique<vk::raii::Device>(*physical_device_, device_info);
     queue_ = std::make_unique<vk::raii::Queue>(*device_, queue_family_, 0);
     memory_properties_ = physical_device_->getMemoryProperties();
+    staged_transfers_ = options.staged_transfers || selected().type == "discrete";
 }
 
 Context::~Context() = default;

@@ -44,6 +44,9 @@ struct DeviceInfo {
 struct ContextOptions {
     std::optional<std::uint32_t> device_index;
     bool validation = false;
+    // Lay the kernels' buffers out as for a GPU with memory of its own (device-local, moved by
+    // transfers) whatever the device: the tests run the discrete-GPU path on lavapipe.
+    bool staged_transfers = false;
 };
 
 // True when AMHV_VALIDATION=1 is set: the CLI then turns validation layers on too.
@@ -58,6 +61,10 @@ public:
 
     const std::vector<DeviceInfo>& devices() const { return devices_; }
     const DeviceInfo& selected() const { return devices_[selected_]; }
+    // Kernel inputs and results live in device-local memory and move by transfers (a discrete GPU,
+    // whose shaders would read host memory across the bus, or when asked); otherwise kernels read
+    // and write host memory in place.
+    bool staged_transfers() const { return staged_transfers_; }
 
     vk::raii::Device& device() { return *device_; }
     vk::raii::PhysicalDevice& physical_device() { return *physical_device_; }
@@ -85,6 +92,7 @@ private:
     std::uint32_t queue_family_ = 0;
     std::vector<DeviceInfo> devices_;
     std::size_t selected_ = 0;
+    bool staged_transfers_ = false;
     vk::PhysicalDeviceMemoryProperties memory_properties_;
 };
 

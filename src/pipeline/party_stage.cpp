@@ -200,6 +200,20 @@ std::vector<results::KeyView> key_views(const Scene& scene, const PartyEdit& par
     return views;
 }
 
+// Every object with the key segments it takes part in (the output frames of each), for paths.svg.
+std::vector<PathsObject> paths_objects(const Scene& scene, const PartyEdit& party) {
+    std::vector<PathsObject> objects;
+    for (std::size_t o = 0; o < party.names.size(); ++o) objects.push_back({party.names[o], &party.frames[o], {}});
+    for (const PartyStage& stage : party.stages)
+        for (const TimelineSegment& segment : stage.edit.timeline.segments) {
+            if (!segment.key || segment.length == 0) continue;
+            for (const std::string& name : scene.segments[std::size_t(segment.key - 1)].pair)
+                objects[index_of(party.names, name)].keys.push_back({segment.key, segment.first, segment.length});
+        }
+    for (auto& object : objects) std::sort(object.keys.begin(), object.keys.end());
+    return objects;
+}
+
 }  // namespace
 
 PartyEdit edit_party(const Scene& scene, std::vector<std::unique_ptr<ObjectSource>>& sources, Backends& backends, const fs::path& out,
@@ -276,8 +290,14 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     std::vector<ObjectSource*> pointers;
     for (auto& s : sources) pointers.push_back(s.get());
     if (options.frames) files.mesh_files = results::write_party_frames(out / "frames", party.names, party.frames, pointers);
-    results::write_party_key_views(out / "views", key_views(scene, party), party.frames, pointers);
-    results::Json outputs = {{"frames", options.frames}, {"scene_glb", nullptr}};
+    const std::vector<results::KeyView> views = key_views(scene, party);
+    results::write_party_key_views(out / "views", views, party.frames, pointers);
+    results::write_party_eye_views(out / "views", scene, party.names, views, party.frames, pointers);
+    write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party), party.length());
+    std::vector<const std::vector<ObjectFrameEdit>*> frame_lists;
+    for (const auto& frames : party.frames) frame_lists.push_back(&frames);
+    const std::vector<std::string> bvh = write_edited_bvh(out, party.names, frame_lists, pointers);
+    results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"scene_glb", nullptr}};
     if (options.glb) {
         std::vector<GlbObject> objects;
         for (std::size_t o = 0; o < party.names.size(); ++o) objects.push_back({party.names[o], pointers[o], &party.frames[o]});

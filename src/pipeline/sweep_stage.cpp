@@ -157,6 +157,7 @@ SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b,
         timings["sweep"] = seconds_since(t0);
         if (const auto stages = sweeper.stage_seconds(); stages.size() == 4)
             timings["sweep_stages"] = {{"contact", stages[0]}, {"dictionary", stages[1]}, {"fidelity", stages[2]}, {"visibility", stages[3]}};
+        if (const double wait = sweeper.device_wait_seconds(); wait >= 0) timings["sweep_device_wait"] = wait;
         finish_segment(scene, segment, problem, result, out, options, std::move(timings), stage);
     }
     release_freed_memory();

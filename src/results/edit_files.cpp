@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <numbers>
 
 #include <cairo.h>
@@ -265,20 +266,12 @@ std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit,
 
 namespace {
 
-// A pinhole camera at a performer's eye (docs/method.md section 10): the visibility cone's
-// half-angle reaches the circle of radius kCone pixels around the picture's centre.
-struct EyeCamera {
-    Vec3 eye, forward, right, up;
-    double focal = 1;  // pixels per unit of tangent
-};
-
 constexpr int kEyeSize = 600;
 constexpr double kCone = 170, kNear = 0.05;
 
-// Eye and gaze of object `o` at output frame k in the scene: from its view track, else 10 cm below
-// the top of its body above its root, looking along its edited facing.
-EyeCamera eye_camera(const EditResult& edit, int k, int o, ObjectSource& source, const TriangleMesh& placed, double half_angle_deg) {
-    const ObjectFrameEdit& e = edit.frames[std::size_t(o)][std::size_t(k)];
+}  // namespace
+
+EyeCamera eye_camera(const ObjectFrameEdit& e, ObjectSource& source, const TriangleMesh& placed, double half_angle_deg) {
     EyeCamera c;
     const auto sample = source.track(e.source);
     const Eigen::Rotation2Dd yaw(e.yaw);
@@ -298,9 +291,8 @@ EyeCamera eye_camera(const EditResult& edit, int k, int o, ObjectSource& source,
     return c;
 }
 
-// Draws `other` as `o`'s eye sees it (far triangles first, those behind the eye left out), the
-// floor grid, and the cone's circle; writes `path`.
-void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh& other, int other_index, const std::string& caption) {
+void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh& other, const std::vector<std::size_t>& faces_from,
+                   const std::vector<std::size_t>& colours, const std::string& caption) {
     auto camera = [&](const Vec3& p) { const Vec3 d = p - c.eye; return Vec3(d.dot(c.right), d.dot(c.up), d.dot(c.forward)); };
     auto pixel = [&](const Vec3& q) { return Eigen::Vector2d(kEyeSize / 2.0 + c.focal * q.x() / q.z(), kEyeSize / 2.0 - c.focal * q.y() / q.z()); };
     cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kEyeSize, kEyeSize);
@@ -332,8 +324,9 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
         order.emplace_back(-(q.z() + r.z() + s.z()), t);
     }
     std::sort(order.begin(), order.end());
-    const auto& colour = kObjectColours[std::size_t(other_index)];
     for (const auto& [depth, t] : order) {
+        const std::size_t range = std::size_t(std::upper_bound(faces_from.begin(), faces_from.end(), t) - faces_from.begin()) - 1;
+        const auto& colour = kObjectColours[colours[range] % kObjectColours.size()];
         const auto& tri = other.triangles[t];
         const Vec3 normal = (other.vertices[tri[1]] - other.vertices[tri[0]]).cross(other.vertices[tri[2]] - other.vertices[tri[0]]);
         if (normal.norm() < 1e-15 || normal.dot(other.vertices[tri[0]] - c.eye) > 0) continue;  // degenerate or facing away
@@ -351,8 +344,6 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
     finish_png(cr, surface, path);
 }
 
-}  // namespace
-
 void write_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
     fs::create_directories(folder);
     ObjectSource* sources[2] = {&a, &b};
@@ -362,10 +353,12 @@ void write_eye_views(const fs::path& folder, const Scene& scene, const EditResul
         const VisibilitySpec& visibility = scene.segments[std::size_t(segment.key - 1)].visibility;
         const std::array<TriangleMesh, 2> meshes{placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b)};
         for (int o = 0; o < 2; ++o) {
-            const EyeCamera camera = eye_camera(edit, k, o, *sources[o], meshes[std::size_t(o)], visibility.half_angle_deg);
+            const EyeCamera camera = eye_camera(edit.frames[std::size_t(o)][std::size_t(k)], *sources[o], meshes[std::size_t(o)], visibility.half_angle_deg);
             const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", segment.key, k,
                                                     "AB"[o], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
-            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", segment.key, "AB"[o]), camera, meshes[std::size_t(1 - o)], 1 - o, caption);
+            const TriangleMesh& other = meshes[std::size_t(1 - o)];
+            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", segment.key, "AB"[o]), camera, other, {0, other.triangles.size()},
+                          {std::size_t(1 - o)}, caption);
         }
     }
 }
@@ -420,21 +413,25 @@ bool root_carries_edit(const BvhJoint& root) {
 }  // namespace
 
 std::vector<std::string> write_edited_bvh(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    return write_edited_bvh(folder, {"A", "B"}, {&edit.frames[0], &edit.frames[1]}, {&a, &b});
+}
+
+std::vector<std::string> write_edited_bvh(const fs::path& folder, const std::vector<std::string>& names,
+                                          const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources) {
     std::vector<std::string> written;
-    ObjectSource* sources[2] = {&a, &b};
-    for (int o = 0; o < 2; ++o) {
+    for (std::size_t o = 0; o < names.size(); ++o) {
         const BvhMotion* motion = sources[o]->motion();
         if (!motion || !root_carries_edit(motion->joints[0])) continue;
         BvhMotion out = *motion;
         out.source.clear();
         out.first_frame = 0;
-        out.frame_count = edit.timeline.length();
+        out.frame_count = int(frames[o]->size());
         out.values.clear();
-        for (const ObjectFrameEdit& e : edit.frames[std::size_t(o)]) {
+        for (const ObjectFrameEdit& e : *frames[o]) {
             const std::vector<double> row = edited_row(*motion, e, sources[o]->spec().units);
             out.values.insert(out.values.end(), row.begin(), row.end());
         }
-        const std::string name = fmt::format("{}.bvh", "AB"[o]);
+        const std::string name = names[o] + ".bvh";
         write_file(folder / name, bvh_text(out));
         written.push_back(name);
     }
@@ -442,10 +439,69 @@ std::vector<std::string> write_edited_bvh(const fs::path& folder, const EditResu
 }
 
 void write_paths_picture(const fs::path& svg, const fs::path& png, const EditResult& edit) {
-    const int length = edit.timeline.length();
+    std::vector<std::array<int, 3>> keys;
+    for (const TimelineSegment& seg : edit.timeline.segments)
+        if (seg.key && seg.length > 0) keys.push_back({seg.key, seg.first, seg.length});
+    write_paths_picture(svg, png, {{"A", &edit.frames[0], keys}, {"B", &edit.frames[1], keys}}, edit.timeline.length());
+}
+
+namespace {
+
+// One object's captured and edited root paths with facing ticks every 10 output frames, and its
+// key segments thick and numbered, in `colour`.
+void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, std::array<std::uint8_t, 3> colour, int length,
+                      const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& pixel) {
+    const auto& frames = *object.frames;
+    for (int edited = 0; edited < 2; ++edited) {
+        Shape line;
+        line.colour = colour;
+        line.width = edited ? 2 : 1.5;
+        line.dashed = !edited;
+        line.opacity = edited ? 1 : 0.6;
+        for (const auto& f : frames) line.points.push_back(pixel(edited ? f.edited_root : f.original_root));
+        shapes.push_back(line);
+        // Facing ticks every 10 output frames: 14 pixels along the facing.
+        for (int k = 0; k < length; k += 10) {
+            const auto& f = frames[std::size_t(k)];
+            const Eigen::Vector2d root = edited ? f.edited_root : f.original_root;
+            const double facing = edited ? f.edited_facing : f.original_facing;
+            Shape tick;
+            tick.colour = colour;
+            tick.width = 1;
+            tick.opacity = line.opacity;
+            tick.points = {pixel(root), pixel(root) + 14 * Eigen::Vector2d(std::cos(facing), -std::sin(facing))};
+            shapes.push_back(tick);
+        }
+    }
+    // Key segments: thick on the edited path, numbered at their first frame.
+    for (const auto& [key, first, count] : object.keys) {
+        Shape thick;
+        thick.colour = colour;
+        thick.width = 6;
+        for (int m = first; m < first + count; ++m) thick.points.push_back(pixel(frames[std::size_t(m)].edited_root));
+        if (thick.points.size() == 1) thick.points.push_back(thick.points.front());
+        shapes.push_back(thick);
+        Shape dot;
+        dot.kind = Shape::Kind::Circle;
+        dot.colour = colour;
+        dot.radius = 4;
+        dot.points = {pixel(frames[std::size_t(first)].edited_root)};
+        shapes.push_back(dot);
+        Shape label;
+        label.kind = Shape::Kind::Text;
+        label.colour = colour;
+        label.points = {dot.points[0] + Eigen::Vector2d(6, -6)};
+        label.text = fmt::format("{}{}", object.name, key);
+        shapes.push_back(label);
+    }
+}
+
+}  // namespace
+
+void write_paths_picture(const fs::path& svg, const fs::path& png, const std::vector<PathsObject>& objects, int length) {
     Eigen::AlignedBox2d world;
-    for (const auto& frames : edit.frames)
-        for (const ObjectFrameEdit& f : frames) {
+    for (const PathsObject& object : objects)
+        for (const ObjectFrameEdit& f : *object.frames) {
             world.extend(f.original_root);
             world.extend(f.edited_root);
         }
@@ -454,63 +510,21 @@ void write_paths_picture(const fs::path& svg, const fs::path& png, const EditRes
     const int width = 1000, margin = 40, max_height = 1400;
     const double s = std::min((width - 2 * margin) / std::max(world.sizes().x(), 1e-6), (max_height - 2 * margin - 30) / std::max(world.sizes().y(), 1e-6));
     const int height = int(std::ceil(world.sizes().y() * s)) + 2 * margin + 30;
-    auto pixel = [&](const Eigen::Vector2d& p) {
+    const std::function<Eigen::Vector2d(const Eigen::Vector2d&)> pixel = [&](const Eigen::Vector2d& p) {
         return Eigen::Vector2d(margin + (p.x() - world.min().x()) * s, height - margin - (p.y() - world.min().y()) * s);
     };
     std::vector<Shape> shapes;
-    const char* names[2] = {"A", "B"};
-    for (int o = 0; o < 2; ++o) {
-        const auto& frames = edit.frames[std::size_t(o)];
-        const auto colour = kObjectColours[std::size_t(o)];
-        for (int edited = 0; edited < 2; ++edited) {
-            Shape line;
-            line.colour = colour;
-            line.width = edited ? 2 : 1.5;
-            line.dashed = !edited;
-            line.opacity = edited ? 1 : 0.6;
-            for (const auto& f : frames) line.points.push_back(pixel(edited ? f.edited_root : f.original_root));
-            shapes.push_back(line);
-            // Facing ticks every 10 output frames: 14 pixels along the facing.
-            for (int k = 0; k < length; k += 10) {
-                const auto& f = frames[std::size_t(k)];
-                const Eigen::Vector2d root = edited ? f.edited_root : f.original_root;
-                const double facing = edited ? f.edited_facing : f.original_facing;
-                Shape tick;
-                tick.colour = colour;
-                tick.width = 1;
-                tick.opacity = line.opacity;
-                tick.points = {pixel(root), pixel(root) + 14 * Eigen::Vector2d(std::cos(facing), -std::sin(facing))};
-                shapes.push_back(tick);
-            }
-        }
-        // Key segments: thick on the edited path, numbered at their first frame.
-        for (const TimelineSegment& seg : edit.timeline.segments) {
-            if (!seg.key || seg.length == 0) continue;
-            Shape thick;
-            thick.colour = colour;
-            thick.width = 6;
-            for (int m = seg.first; m < seg.first + seg.length; ++m) thick.points.push_back(pixel(frames[std::size_t(m)].edited_root));
-            if (thick.points.size() == 1) thick.points.push_back(thick.points.front());
-            shapes.push_back(thick);
-            Shape dot;
-            dot.kind = Shape::Kind::Circle;
-            dot.colour = colour;
-            dot.radius = 4;
-            dot.points = {pixel(frames[std::size_t(seg.first)].edited_root)};
-            shapes.push_back(dot);
-            Shape label;
-            label.kind = Shape::Kind::Text;
-            label.colour = colour;
-            label.points = {dot.points[0] + Eigen::Vector2d(6, -6)};
-            label.text = fmt::format("{}{}", names[o], seg.key);
-            shapes.push_back(label);
-        }
+    std::vector<std::string> named;
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        add_object_paths(shapes, objects[o], kObjectColours[o % kObjectColours.size()], length, pixel);
+        named.push_back(fmt::format("{} {}", objects[o].name, kObjectColourNames[o % kObjectColourNames.size()]));
     }
     // Legend and a 1 m scale bar.
     Shape legend;
     legend.kind = Shape::Kind::Text;
     legend.points = {Eigen::Vector2d(margin, 22)};
-    legend.text = "top view, metres: A orange, B blue; dashed = captured (at the editor's placement), solid = edited; thick = key segments";
+    legend.text = fmt::format("top view, metres: {}; dashed = captured (at the editor's placement), solid = edited; thick = key segments",
+                              fmt::join(named, ", "));
     shapes.push_back(legend);
     Shape bar;
     bar.width = 2;

@@ -18,11 +18,29 @@ namespace amhv {
 // Object colours in meshes and pictures: A orange, B blue, then green, purple, yellow, red (cycling).
 inline constexpr std::array<std::array<std::uint8_t, 3>, 6> kObjectColours{
     {{230, 120, 40}, {40, 120, 230}, {60, 170, 80}, {150, 80, 190}, {220, 190, 40}, {200, 60, 90}}};
+inline constexpr std::array<const char*, 6> kObjectColourNames{"orange", "blue", "green", "purple", "yellow", "red"};
 
 // `path`: `mesh` seen from the side, looking across the floor direction `across` (flat shaded, the
 // floor grey); triangles [faces_from[o], faces_from[o + 1]) in object o's colour.
 void draw_side_view(const std::filesystem::path& path, const TriangleMesh& mesh, const std::vector<std::size_t>& faces_from,
                     const Eigen::Vector2d& across);
+
+// A pinhole camera at a performer's eye (docs/method.md section 10): the visibility cone's
+// half-angle reaches a circle of 170 pixels (kCone) around the picture's centre.
+struct EyeCamera {
+    Vec3 eye, forward, right, up;
+    double focal = 1;  // pixels per unit of tangent
+};
+
+// Eye and gaze of an object at one output frame `e` in the scene: from its view track, else 10 cm
+// below the top of its placed body `placed` above its root, looking along its edited facing.
+EyeCamera eye_camera(const ObjectFrameEdit& e, ObjectSource& source, const TriangleMesh& placed, double half_angle_deg);
+
+// Draws `other` as the camera sees it (far triangles first, those behind the eye left out; faces
+// [faces_from[r], faces_from[r + 1]) in the colour of object colours[r]), the floor grid and the
+// cone's circle; writes `path`.
+void draw_eye_view(const std::filesystem::path& path, const EyeCamera& c, const TriangleMesh& other, const std::vector<std::size_t>& faces_from,
+                   const std::vector<std::size_t>& colours, const std::string& caption);
 
 // One object's transform at one output frame, as transforms.json gives it.
 nlohmann::ordered_json frame_transform_json(const ObjectFrameEdit& e);
@@ -56,10 +74,24 @@ void write_eye_views(const std::filesystem::path& folder, const Scene& scene, co
 // to carry the edit (in the file's own units and axes); every other channel untouched. A root
 // without three position and three rotation channels cannot carry it: no file. Returns the names.
 std::vector<std::string> write_edited_bvh(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+// The same for any number of objects: NAME.bvh for each object of `names` whose source is a BVH
+// take, over its frames (`frames[o]`, per output frame).
+std::vector<std::string> write_edited_bvh(const std::filesystem::path& folder, const std::vector<std::string>& names,
+                                          const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources);
 
 // paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
 // placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),
 // facings as ticks every 10 output frames. The PNG is the same drawing without text.
 void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const EditResult& edit);
+// One object of a paths picture: its frames and its key segments (index, first output frame,
+// length), drawn thick on its edited path and numbered.
+struct PathsObject {
+    std::string name;
+    const std::vector<ObjectFrameEdit>* frames = nullptr;
+    std::vector<std::array<int, 3>> keys;
+};
+// The same for any number of objects over `length` output frames (the two-object picture is this
+// with A and B sharing every key segment).
+void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const std::vector<PathsObject>& objects, int length);
 
 }  // namespace amhv

@@ -43,6 +43,11 @@ struct KeyView {
 };
 void write_party_key_views(const std::filesystem::path& folder, const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
                            const std::vector<ObjectSource*>& sources);
+// views/key_N_from_NAME.png: at each key view's frame, what each of its pair sees from its eyes
+// (every other object, in its colour), with the view cone of the key segment's visibility.
+void write_party_eye_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names,
+                           const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
+                           const std::vector<ObjectSource*>& sources);
 
 // result.json's "pairs": per pair, the frames checked, the frames with overlap, the largest overlap
 // and the smallest gap.

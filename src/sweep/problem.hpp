@@ -156,6 +156,9 @@ public:
     // Wall seconds of the last sweep per constraint stage (contact, dictionary, fidelity,
     // visibility), where the backend measures them; empty otherwise.
     virtual std::vector<double> stage_seconds() const { return {}; }
+    // Wall seconds of the last sweep spent waiting for a device's submits (the rest of the stages'
+    // time is the host's), where there is a device; negative otherwise.
+    virtual double device_wait_seconds() const { return -1; }
 };
 
 }  // namespace amhv

@@ -67,6 +67,12 @@ SweepResult SweepRun::run() {
     return std::move(result_);
 }
 
+void SweepRun::submit_and_wait() {
+    const auto start = std::chrono::steady_clock::now();
+    sequence_.submit_and_wait();
+    tools_.stats.device_wait_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 void SweepRun::lap(int stage) {
     const auto now = std::chrono::steady_clock::now();
     tools_.stats.seconds_per_stage[std::size_t(stage)] += std::chrono::duration<double>(now - clock_).count();

@@ -48,6 +48,7 @@ struct SweepStats {
     std::uint64_t submits = 0;
     std::array<std::uint64_t, 4> poses_per_stage{};  // poses entering contact, dictionary, fidelity, visibility
     std::array<double, 4> seconds_per_stage{};        // wall time of each stage, host work included
+    double device_wait_seconds = 0;                   // of those, waiting for submits to finish
     std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
     std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
     std::array<std::uint64_t, 4> maps_per_stage{};         // overlap maps computed (per batch and test)
@@ -64,6 +65,7 @@ public:
     std::vector<double> stage_seconds() const override {
         return {stats_.seconds_per_stage.begin(), stats_.seconds_per_stage.end()};
     }
+    double device_wait_seconds() const override { return stats_.device_wait_seconds; }
 
     static constexpr std::uint32_t kWorkgroup = 64;
     static constexpr int kMaxFrameWords = 16;  // PER_FRAME tests handle up to 512 frames

@@ -143,8 +143,9 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     const int longest = *std::max_element(longest_of.begin(), longest_of.end());
     const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
-    ensure_host_capacity(tools_.context, map_words_, map_bytes);
-    sequence_.fill(*map_words_, map_bytes, 0u);
+    map_words_.ensure(tools_.context, map_bytes);
+    map_bytes_ = map_bytes;
+    sequence_.fill(map_words_.device(), map_bytes, 0u);
     // The clear must land before the runs OR their intervals in.
     sequence_.barrier();
     ++tools_.stats.maps_per_stage[std::size_t(stage)];
@@ -169,13 +170,14 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         // angle order sorts the batch: neighbouring invocations with the same key walk the same
         // fixed runs (uniform loops and loads across a subgroup).
         if (total_runs > 0) {
-            ensure_host_capacity(tools_.context, pulled_, total_runs * sizeof(PulledRun));
-            PulledRun* staged = pulled_->mapped<PulledRun>().data();
+            pulled_.ensure(tools_.context, total_runs * sizeof(PulledRun));
+            PulledRun* staged = pulled_.host<PulledRun>().data();
             for (int a = 0; a < batch_angles; ++a) {
                 const auto& pruned = angle_scratch_[std::size_t(a)].pruned;
                 staged = std::copy(pruned.begin(), pruned.end(), staged);
             }
         }
+        pulled_.copy_to_device(sequence_, total_runs * sizeof(PulledRun));
         dispatch_map_pass(test, total_runs, longest);
         if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
     }
@@ -211,7 +213,7 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), pulled_.get(), map_words_.get()}));
+        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), &pulled_.device(), &map_words_.device()}));
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
@@ -220,15 +222,16 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
     }
     // The host reads the maps after the fence.
+    map_words_.copy_to_host(sequence_, map_bytes_);
     sequence_.barrier_to_host();
-    sequence_.submit_and_wait();
+    submit_and_wait();
     ++tools_.stats.submits;
 }
 
 // After a pass: poses with an overlap found are decided (one map per angle here); the box in play
 // shrinks to the poses still open.
 void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
-    const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
+    const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
     for (int a = 0; a < batch_angles; ++a) {
         Band& band = open_rows[std::size_t(a)];
@@ -278,7 +281,7 @@ std::uint32_t frames_at_least(const std::uint32_t* first, int maps, std::size_t 
 // maps (in every one when all are needed); otherwise the one map's bit says it.
 std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angles) const {
     const int maps = test.maps_per_angle();
-    const std::uint32_t* words = map_words_->mapped<std::uint32_t>().data();
+    const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     std::vector<std::uint8_t> meets(per_angle_ * std::uint64_t(batch_angles));
     const std::uint8_t when_set = test.want == Want::NoOverlap ? 0 : 1;
     for (int a = 0; a < batch_angles; ++a)

@@ -169,8 +169,8 @@ void SweepRun::prepare_map(MapTest& test) {
     for (const SliceRun& run : test.runs.runs)
         packed.push_back({std::uint32_t(run.y - test.fixed->y0),
                           std::uint32_t(run.x_first - test.fixed->x0) | std::uint32_t(run.x_last - test.fixed->x0) << 16});
-    test.fixed_runs = upload_to_host(tools_.context, packed.data(), packed.size() * 8);
-    test.fixed_keys = upload_to_host(tools_.context, test.runs.by_key.data(), test.runs.by_key.size() * 8);
+    test.fixed_runs = upload_for_kernels(tools_.context, packed.data(), packed.size() * 8);
+    test.fixed_keys = upload_for_kernels(tools_.context, test.runs.by_key.data(), test.runs.by_key.size() * 8);
 }
 
 void SweepRun::upload_angle_tables() {
@@ -187,13 +187,13 @@ void SweepRun::upload_angle_tables() {
             std::copy(bounds.begin(), bounds.end(), angle.bounds);
             std::memcpy(table.data() + 32 + std::size_t(k) * sizeof(GpuAngle), &angle, sizeof(angle));
         }
-        test.moving->angles = upload_to_host(context, table.data(), table.size());
+        test.moving->angles = upload_for_kernels(context, table.data(), table.size());
     });
     for_each_test([&](const OverlapTest& test) {
         if (test.want != Want::Frames) return;
         if (!test.fixed->frame_boxes) {
             const auto& boxes = test.fixed->columns.slot_boxes;
-            test.fixed->frame_boxes = upload_to_host(context, boxes.data() + 1, (boxes.size() - 1) * 16);
+            test.fixed->frame_boxes = upload_for_kernels(context, boxes.data() + 1, (boxes.size() - 1) * 16);
         }
         if (!test.moving->angle_frame_boxes) {
             const ColumnVolume& m = test.moving->columns;
@@ -201,7 +201,7 @@ void SweepRun::upload_angle_tables() {
             for (int k = 0; k < range_.angles; ++k)
                 for (int t = 0; t < m.frames(); ++t)
                     boxes.push_back(mapped_bounds(m, m.slot_boxes[std::size_t(1 + t)], trig_[std::size_t(k)], root_a_, root_b_));
-            test.moving->angle_frame_boxes = upload_to_host(context, boxes.data(), boxes.size() * 16);
+            test.moving->angle_frame_boxes = upload_for_kernels(context, boxes.data(), boxes.size() * 16);
         }
     });
 }

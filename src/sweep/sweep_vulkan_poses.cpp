@@ -48,7 +48,7 @@ const std::vector<OverlapTest>& SweepRun::block_stage(int stage) {
         GpuVolume* volume = it->second;
         if (test.want == Want::Frames && !volume->frame_boxes) {
             const auto& boxes = volume->columns.slot_boxes;
-            volume->frame_boxes = upload_to_host(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);
+            volume->frame_boxes = upload_for_kernels(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);
         }
         test.fixed = volume;
         tests.push_back(test);
@@ -86,20 +86,22 @@ void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* 
         const int chunks = std::min(wave, b.items_per_pose - chunk_first);
         const bool implicit = !pose_list && live.size() == count;
         if (!implicit) {
-            ensure_host_capacity(context, poses_, live.size() * 16);
-            auto* out = poses_->mapped<std::uint8_t>().data();
+            poses_.ensure(context, live.size() * 16);
+            auto* out = poses_.host<std::uint8_t>().data();
             for (std::size_t l = 0; l < live.size(); ++l) {
                 const Pose pose = pose_list ? (*pose_list)[live[l]] : implicit_pose(angle_first, live[l]);
                 std::memcpy(out + l * 16, pose.data(), 16);
             }
+            poses_.copy_to_device(sequence_, live.size() * 16);
         }
-        ensure_host_capacity(context, flags_, live.size() * std::uint64_t(words) * 4);
-        sequence_.fill(*flags_, live.size() * std::uint64_t(words) * 4, 0u);
+        const std::uint64_t flag_bytes = live.size() * std::uint64_t(words) * 4;
+        flags_.ensure(context, flag_bytes);
+        sequence_.fill(flags_.device(), flag_bytes, 0u);
         // The clear must land before the test ORs its flags in.
         sequence_.barrier();
         const BoundBuffers set = tools_.overlap.bind(
             {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
-             implicit ? &no_poses_ : poses_.get(), flags_.get(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses_,
+             implicit ? &no_poses_ : &poses_.device(), &flags_.device(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses_,
              test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses_});
         const OverlapParams params{0, 0,
                                    std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
@@ -113,10 +115,11 @@ void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* 
         tools_.stats.work_items += items;
         sequence_.dispatch(tools_.overlap, set, params, std::uint32_t(items));
         // The host reads the flags after the fence.
+        flags_.copy_to_host(sequence_, flag_bytes);
         sequence_.barrier_to_host();
-        sequence_.submit_and_wait();
+        submit_and_wait();
         ++tools_.stats.submits;
-        const std::uint32_t* f = flags_->mapped<std::uint32_t>().data();
+        const std::uint32_t* f = flags_.host<std::uint32_t>().data();
         // Frames whose every item has run: more frames among them without overlap than the test
         // allows decide the pose.
         const int frames_done = per_frame ? std::min(frames_, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
@@ -152,8 +155,8 @@ Meets SweepRun::run_stage(const std::vector<OverlapTest>& stage, const std::vect
         const OverlapTest& test = stage[t];
         for (GpuVolume* v : {test.fixed, test.moving})
             if (!v->bits) {
-                v->bits = upload_to_host(tools_.context, v->columns.bits.data(), v->columns.bits.size() * 4);
-                v->rows = upload_to_host(tools_.context, v->columns.rows.data(), v->columns.rows.size() * 8);
+                v->bits = upload_for_kernels(tools_.context, v->columns.bits.data(), v->columns.bits.size() * 4);
+                v->rows = upload_for_kernels(tools_.context, v->columns.rows.data(), v->columns.rows.size() * 8);
             }
         const int words = test.flag_words();
         std::vector<std::uint32_t> found(count * std::uint64_t(words), 0u);
