@@ -91,6 +91,12 @@ type = "0&0b"
 )";
 const std::string kTrack = "frame,eye_x,eye_y,eye_z,gaze_x,gaze_y,gaze_z\n0,0,0,1.6,1,0,0\n1,0,0,1.6,1,0,0\n";
 
+// kMeshScene with B's parts labelled by l/f_NNNN.txt.
+std::string with_labels(std::string scene) {
+    const std::string b = "[objects.B]\nmeshes = \"m/f_%04d.obj\"\n";
+    return scene.replace(scene.find(b), b.size(), b + "labels = \"l/f_%04d.txt\"\n");
+}
+
 std::string mhv(const std::string& input, const std::string& voxel = "0.05") {
     return "mhv --meshes '{d}/" + input + "' --voxel " + voxel + " --backend cpu --out '{d}/out'";
 }
@@ -284,6 +290,9 @@ std::vector<Hostile> scene_cases() {
          check, "track.csv:4: frame 1e+20 is not a whole frame number"},
         {"TrackFrameFraction", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "0.5,0,0,1.6,1,0,0\n"}},
          check, "track.csv:4: frame 0.5 is not a whole frame number"},
+        {"LabelOfAGroupMember", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"l/f_0000.txt", "body body @A body\n"}, {"l/f_0001.txt", "body body body body\n"},
+                                 {"scene.toml", with_labels(kMeshScene)}, {"track.csv", kTrack}},
+         sweep, "f_0000.txt: label '@A' of vertex 2 starts with '@', which amhv keeps for the members of a placed group"},
         {"TrackNaN", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1,nan,0,1.6,1,0,0\n"}},
          check, "track.csv:4"},
         {"ObjMaterialLibraryMissing", {{"m/f_0000.obj", "mtllib none.mtl\n" + kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack}},

@@ -71,7 +71,13 @@ std::vector<std::string> read_labels(const fs::path& path, std::size_t vertex_co
     if (!in) fail(path.string(), "cannot open the labels file");
     std::vector<std::string> labels;
     std::string token;
-    while (in >> token) labels.push_back(token);
+    while (in >> token) {
+        // A placed group names its other members "@NAME" (make_group): a user's part may not.
+        if (token.front() == '@')
+            fail(path.string(), "label '{}' of vertex {} starts with '@', which amhv keeps for the members of a placed group; rename the part",
+                 token, labels.size());
+        labels.push_back(token);
+    }
     if (labels.size() != vertex_count)
         fail(path.string(), "has {} labels but the frame's mesh has {} vertices", labels.size(), vertex_count);
     return labels;
