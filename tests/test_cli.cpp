@@ -342,6 +342,7 @@ TEST(Cli, DevicesListsLavapipeAndMarksTheChosenOne) {
     EXPECT_NE(result.output.find("* [0]"), std::string::npos) << result.output;
     EXPECT_NE(result.output.find("max storage buffer range"), std::string::npos);
     EXPECT_NE(result.output.find("subgroup size"), std::string::npos);
+    EXPECT_NE(result.output.find("the sweep's buffers: host memory, read by the device in place"), std::string::npos) << result.output;
     auto missing = test::run_amhv("devices --device 42");
     EXPECT_NE(missing.exit_code, 0);
     EXPECT_EQ(test::one_line_error(missing), 1) << missing.output;

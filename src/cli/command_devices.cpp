@@ -30,6 +30,9 @@ void add_devices_command(CLI::App& app) {
             if (!d.usable()) std::cout << fmt::format("      not usable: {}\n", fmt::join(d.problems, "; "));
         }
         std::cout << fmt::format("* = used (preference: discrete GPU > integrated > virtual > CPU; --device N picks another)\n");
+        std::cout << (context.staged_transfers()
+                          ? "the sweep's buffers: device-local memory, moved by transfers (a discrete GPU)\n"
+                          : "the sweep's buffers: host memory, read by the device in place\n");
     });
 }
 
