@@ -188,15 +188,15 @@ EditResult edit_stage(const PartyStage& stage, ObjectSource& a, ObjectSource& b,
 
 // The middle output frame of every key segment (a stage's output frames are the final ones: the
 // later stages keep the group's timing), with its pair.
-std::vector<results::KeyView> key_views(const Scene& scene, const PartyEdit& party) {
-    std::vector<results::KeyView> views;
+std::vector<KeyView> key_views(const Scene& scene, const PartyEdit& party) {
+    std::vector<KeyView> views;
     for (const PartyStage& stage : party.stages)
         for (const TimelineSegment& segment : stage.edit.timeline.segments) {
             if (!segment.key || segment.length == 0) continue;
             const KeySegment& key = scene.segments[std::size_t(segment.key - 1)];
             views.push_back({segment.key, segment.first + segment.length / 2, index_of(party.names, key.pair[0]), index_of(party.names, key.pair[1])});
         }
-    std::sort(views.begin(), views.end(), [](const results::KeyView& x, const results::KeyView& y) { return x.key < y.key; });
+    std::sort(views.begin(), views.end(), [](const KeyView& x, const KeyView& y) { return x.key < y.key; });
     return views;
 }
 
@@ -290,12 +290,12 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     std::vector<ObjectSource*> pointers;
     for (auto& s : sources) pointers.push_back(s.get());
     if (options.frames) files.mesh_files = results::write_party_frames(out / "frames", party.names, party.frames, pointers);
-    const std::vector<results::KeyView> views = key_views(scene, party);
-    results::write_party_key_views(out / "views", views, party.frames, pointers);
-    results::write_party_eye_views(out / "views", scene, party.names, views, party.frames, pointers);
-    write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party), party.length());
     std::vector<const std::vector<ObjectFrameEdit>*> frame_lists;
     for (const auto& frames : party.frames) frame_lists.push_back(&frames);
+    const std::vector<KeyView> views = key_views(scene, party);
+    results::write_party_key_views(out / "views", views, party.frames, pointers);
+    write_eye_views(out / "views", scene, party.names, views, frame_lists, pointers);
+    write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party));
     const std::vector<std::string> bvh = write_edited_bvh(out, party.names, frame_lists, pointers);
     results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"scene_glb", nullptr}};
     if (options.glb) {

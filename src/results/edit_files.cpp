@@ -345,20 +345,32 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
 }
 
 void write_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    std::vector<KeyView> views;
+    for (const TimelineSegment& segment : edit.timeline.segments)
+        if (segment.key && segment.length > 0) views.push_back({segment.key, segment.first + segment.length / 2, 0, 1});
+    write_eye_views(folder, scene, {"A", "B"}, views, {&edit.frames[0], &edit.frames[1]}, {&a, &b});
+}
+
+void write_eye_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
+                     const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources) {
     fs::create_directories(folder);
-    ObjectSource* sources[2] = {&a, &b};
-    for (const TimelineSegment& segment : edit.timeline.segments) {
-        if (!segment.key || segment.length == 0) continue;
-        const int k = segment.first + segment.length / 2;
-        const VisibilitySpec& visibility = scene.segments[std::size_t(segment.key - 1)].visibility;
-        const std::array<TriangleMesh, 2> meshes{placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b)};
-        for (int o = 0; o < 2; ++o) {
-            const EyeCamera camera = eye_camera(edit.frames[std::size_t(o)][std::size_t(k)], *sources[o], meshes[std::size_t(o)], visibility.half_angle_deg);
-            const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", segment.key, k,
-                                                    "AB"[o], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
-            const TriangleMesh& other = meshes[std::size_t(1 - o)];
-            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", segment.key, "AB"[o]), camera, other, {0, other.triangles.size()},
-                          {std::size_t(1 - o)}, caption);
+    for (const KeyView& view : views) {
+        std::vector<TriangleMesh> placed;
+        for (std::size_t o = 0; o < frames.size(); ++o) placed.push_back(placed_mesh((*frames[o])[std::size_t(view.frame)], *sources[o]));
+        const VisibilitySpec& visibility = scene.segments[std::size_t(view.key - 1)].visibility;
+        for (const std::size_t viewer : {view.first, view.second}) {
+            TriangleMesh others;
+            std::vector<std::size_t> faces_from{0}, colours;
+            for (std::size_t o = 0; o < frames.size(); ++o) {
+                if (o == viewer) continue;
+                others.append(placed[o]);
+                faces_from.push_back(others.triangles.size());
+                colours.push_back(o);
+            }
+            const EyeCamera camera = eye_camera((*frames[viewer])[std::size_t(view.frame)], *sources[viewer], placed[viewer], visibility.half_angle_deg);
+            const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", view.key, view.frame,
+                                                    names[viewer], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
+            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", view.key, names[viewer]), camera, others, faces_from, colours, caption);
         }
     }
 }
@@ -442,16 +454,17 @@ void write_paths_picture(const fs::path& svg, const fs::path& png, const EditRes
     std::vector<std::array<int, 3>> keys;
     for (const TimelineSegment& seg : edit.timeline.segments)
         if (seg.key && seg.length > 0) keys.push_back({seg.key, seg.first, seg.length});
-    write_paths_picture(svg, png, {{"A", &edit.frames[0], keys}, {"B", &edit.frames[1], keys}}, edit.timeline.length());
+    write_paths_picture(svg, png, {{"A", &edit.frames[0], keys}, {"B", &edit.frames[1], keys}});
 }
 
 namespace {
 
 // One object's captured and edited root paths with facing ticks every 10 output frames, and its
 // key segments thick and numbered, in `colour`.
-void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, std::array<std::uint8_t, 3> colour, int length,
+void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, std::array<std::uint8_t, 3> colour,
                       const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& pixel) {
     const auto& frames = *object.frames;
+    const int length = int(frames.size());
     for (int edited = 0; edited < 2; ++edited) {
         Shape line;
         line.colour = colour;
@@ -498,7 +511,7 @@ void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, std
 
 }  // namespace
 
-void write_paths_picture(const fs::path& svg, const fs::path& png, const std::vector<PathsObject>& objects, int length) {
+void write_paths_picture(const fs::path& svg, const fs::path& png, const std::vector<PathsObject>& objects) {
     Eigen::AlignedBox2d world;
     for (const PathsObject& object : objects)
         for (const ObjectFrameEdit& f : *object.frames) {
@@ -516,7 +529,7 @@ void write_paths_picture(const fs::path& svg, const fs::path& png, const std::ve
     std::vector<Shape> shapes;
     std::vector<std::string> named;
     for (std::size_t o = 0; o < objects.size(); ++o) {
-        add_object_paths(shapes, objects[o], kObjectColours[o % kObjectColours.size()], length, pixel);
+        add_object_paths(shapes, objects[o], kObjectColours[o % kObjectColours.size()], pixel);
         named.push_back(fmt::format("{} {}", objects[o].name, kObjectColourNames[o % kObjectColourNames.size()]));
     }
     // Legend and a 1 m scale bar.

@@ -68,6 +68,15 @@ std::vector<int> write_key_views(const std::filesystem::path& folder, const Edit
 // it) along its gaze, the other performer shaded, the floor grid, and the visibility cone's
 // half-angle as a circle around the centre.
 void write_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+// A key segment's middle output frame `frame` and its pair (indices of the objects).
+struct KeyView {
+    int key = 0, frame = 0;
+    std::size_t first = 0, second = 0;
+};
+// The same for any number of objects: `folder`/key_N_from_NAME.png for each of a key view's pair,
+// every other object in its colour; `frames[o]` is object o's per output frame.
+void write_eye_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
+                     const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources);
 
 // `folder`/A.bvh and B.bvh for the objects read from BVH takes: one frame per output frame (the
 // scene's rate), each the source frame's channels with the root's position and rotation rewritten
@@ -91,7 +100,7 @@ struct PathsObject {
     std::vector<std::array<int, 3>> keys;
 };
 // The same for any number of objects over `length` output frames (the two-object picture is this
-// with A and B sharing every key segment).
-void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const std::vector<PathsObject>& objects, int length);
+// with A and B sharing every key segment). Every object has the same output frames.
+void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const std::vector<PathsObject>& objects);
 
 }  // namespace amhv

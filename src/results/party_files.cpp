@@ -96,30 +96,6 @@ void write_party_key_views(const fs::path& folder, const std::vector<KeyView>& v
     }
 }
 
-void write_party_eye_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
-                           const std::vector<std::vector<ObjectFrameEdit>>& frames, const std::vector<ObjectSource*>& sources) {
-    fs::create_directories(folder);
-    for (const KeyView& view : views) {
-        std::vector<TriangleMesh> placed;
-        for (std::size_t o = 0; o < frames.size(); ++o) placed.push_back(placed_mesh(frames[o][std::size_t(view.frame)], *sources[o]));
-        const VisibilitySpec& visibility = scene.segments[std::size_t(view.key - 1)].visibility;
-        for (const std::size_t viewer : {view.first, view.second}) {
-            TriangleMesh others;
-            std::vector<std::size_t> faces_from{0}, colours;
-            for (std::size_t o = 0; o < frames.size(); ++o) {
-                if (o == viewer) continue;
-                others.append(placed[o]);
-                faces_from.push_back(others.triangles.size());
-                colours.push_back(o);
-            }
-            const EyeCamera camera = eye_camera(frames[viewer][std::size_t(view.frame)], *sources[viewer], placed[viewer], visibility.half_angle_deg);
-            const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", view.key, view.frame,
-                                                    names[viewer], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
-            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", view.key, names[viewer]), camera, others, faces_from, colours, caption);
-        }
-    }
-}
-
 Json pair_summary(const std::vector<std::string>& names, const std::vector<PairRow>& rows, double voxel) {
     Json out = Json::array();
     for (std::size_t i = 0; i < names.size(); ++i)

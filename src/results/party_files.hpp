@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "src/edit/edit.hpp"
+#include "src/results/edit_files.hpp"
 #include "src/results/result_json.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
@@ -37,16 +38,7 @@ int write_party_frames(const std::filesystem::path& folder, const std::vector<st
 
 // One key segment's picture: `folder`/key_N.png shows every object at output frame `frame`, looking
 // across the line from object `first`'s root to object `second`'s (the pair).
-struct KeyView {
-    int key = 0, frame = 0;
-    std::size_t first = 0, second = 0;
-};
 void write_party_key_views(const std::filesystem::path& folder, const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
-                           const std::vector<ObjectSource*>& sources);
-// views/key_N_from_NAME.png: at each key view's frame, what each of its pair sees from its eyes
-// (every other object, in its colour), with the view cone of the key segment's visibility.
-void write_party_eye_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names,
-                           const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
                            const std::vector<ObjectSource*>& sources);
 
 // result.json's "pairs": per pair, the frames checked, the frames with overlap, the largest overlap

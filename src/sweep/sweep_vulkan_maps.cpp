@@ -144,7 +144,6 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     map_words_.ensure(tools_.context, map_bytes);
-    map_bytes_ = map_bytes;
     sequence_.fill(map_words_.device(), map_bytes, 0u);
     // The clear must land before the runs OR their intervals in.
     sequence_.barrier();
@@ -178,7 +177,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             }
         }
         pulled_.copy_to_device(sequence_, total_runs * sizeof(PulledRun));
-        dispatch_map_pass(test, total_runs, longest);
+        dispatch_map_pass(test, total_runs, longest, map_bytes);
         if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
     }
     return read_map(test, batch_angles);
@@ -199,8 +198,8 @@ void SweepRun::split_by_pass(AngleScratch& scratch, int passes, int zbits) {
     for (const SliceRun& run : scratch.cut) scratch.by_pass[next[std::size_t(pass_of(run.key % zbits, run.y, passes))]++] = run;
 }
 
-// ORs one pass's pulled runs (staged in `pulled_`) into the maps and waits for them.
-void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longest) {
+// ORs one pass's pulled runs (staged in `pulled_`) into the maps (`map_bytes` of them) and waits for them.
+void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longest, std::uint64_t map_bytes) {
     std::optional<BoundBuffers> set;  // lives until the submit below has finished
     if (run_count > 0) {
         const std::uint32_t budget = tools_.options.loop_budget;
@@ -222,7 +221,7 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
     }
     // The host reads the maps after the fence.
-    map_words_.copy_to_host(sequence_, map_bytes_);
+    map_words_.copy_to_host(sequence_, map_bytes);
     sequence_.barrier_to_host();
     submit_and_wait();
     ++tools_.stats.submits;

@@ -221,7 +221,7 @@ private:
     // Decides `test` for every pose of the batch (implicit order) with an overlap map.
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
                                       const std::vector<std::uint8_t>* candidates);
-    void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest);
+    void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest, std::uint64_t map_bytes);
     // Submits the sequence and waits for it, counting the wait as the device's time.
     void submit_and_wait();
     void close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const;
@@ -264,7 +264,6 @@ private:
     std::chrono::steady_clock::time_point clock_;
     Sequence sequence_;
     MirroredBuffer poses_, pulled_, flags_, map_words_;
-    std::uint64_t map_bytes_ = 0;  // of map_words_ in the batch's maps
     // Scratch of the overlap maps, reused batch after batch (fresh buffers cost page faults).
     std::vector<AngleScratch> angle_scratch_;
     std::vector<std::uint8_t> open_scratch_;
