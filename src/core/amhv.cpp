@@ -6,6 +6,7 @@
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
+#include "src/core/process.hpp"
 
 namespace amhv {
 
@@ -49,7 +50,9 @@ void* allocate_zeroed(std::size_t bytes) {
             return block;
         }
     }
-    return std::calloc(bytes, 1);
+    void* block = std::calloc(bytes, 1);
+    advise_huge_pages(block, bytes);
+    return block;
 }
 
 void free_zeroed(void* block, std::size_t bytes) {

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "src/sweep/sweep_vulkan_run.hpp"
 
 namespace amhv::gpu::sweep_detail {
@@ -14,6 +15,33 @@ PoseRange level_of(PoseRange range, int level) {
     range.z_first = range.z_last = level;
     return range;
 }
+
+// Column volumes to build, each a plain function of the segment's volumes: they are built on all
+// cores (a serial step of every sweep before), then added in the order they were asked for.
+class ColumnJobs {
+public:
+    std::size_t add(std::function<ColumnVolume()> job) {
+        jobs_.push_back(std::move(job));
+        return jobs_.size() - 1;
+    }
+    std::vector<ColumnVolume> run() const {
+        std::vector<ColumnVolume> built(jobs_.size());
+        parallel_for(jobs_.size(), [&](std::size_t k) { built[k] = jobs_[k](); });
+        return built;
+    }
+
+private:
+    std::vector<std::function<ColumnVolume()>> jobs_;
+};
+
+// An overlap test of stage `stage` on the column volumes `fixed` and `moving` (ColumnJobs indices).
+struct PlannedTest {
+    int stage;
+    std::size_t fixed, moving;
+    int frames;
+    Want want;
+    int needed = 0;
+};
 
 }  // namespace
 
@@ -72,41 +100,56 @@ GpuVolume* SweepRun::add(ColumnVolume columns) {
 void SweepRun::plan_stages() {
     const SweepObject& A = problem_.a;
     const SweepObject& B = problem_.b;
+    ColumnJobs jobs;
     const bool frames_of_interest = type_.lateral_pair() && (type_.variant == 'a' || type_.variant == 'b');
-    interest_a_ = add(columns_of(A.interest, z_, frames_of_interest));
-    interest_b_ = add(columns_of(B.interest, z_b_, frames_of_interest));
-    stages_[0].push_back({interest_a_, interest_b_, 0, Want::Overlap});
+    const std::size_t interest_a = jobs.add([&] { return columns_of(A.interest, z_, frames_of_interest); });
+    const std::size_t interest_b = jobs.add([&] { return columns_of(B.interest, z_b_, frames_of_interest); });
+    std::vector<PlannedTest> planned{{0, interest_a, interest_b, 0, Want::Overlap}};
     const int last = last_, tolerance = problem_.tolerance;
     auto off_surface = [&](const Amhv& volume, SurfaceLabel label, const ZFrame& z) {
-        return add(columns_where(volume, z, [&, label](std::size_t v) {
-            return label == SurfaceLabel::Plus ? volume.t_end(v) < last - tolerance : volume.t_start(v) > tolerance;
-        }));
+        return jobs.add([&volume, label, &z, last, tolerance] {
+            return columns_where(volume, z, [&, label](std::size_t v) {
+                return label == SurfaceLabel::Plus ? volume.t_end(v) < last - tolerance : volume.t_start(v) > tolerance;
+            });
+        });
     };
     if (!type_.lateral_pair()) {
-        if (type_.a != SurfaceLabel::Lateral) stages_[1].push_back({off_surface(A.interest, type_.a, z_), interest_b_, 0, Want::NoOverlap});
-        if (type_.b != SurfaceLabel::Lateral) stages_[1].push_back({interest_a_, off_surface(B.interest, type_.b, z_b_), 0, Want::NoOverlap});
+        if (type_.a != SurfaceLabel::Lateral) planned.push_back({1, off_surface(A.interest, type_.a, z_), interest_b, 0, Want::NoOverlap});
+        if (type_.b != SurfaceLabel::Lateral) planned.push_back({1, interest_a, off_surface(B.interest, type_.b, z_b_), 0, Want::NoOverlap});
     } else if (type_.variant == 'a') {
-        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::Frames, problem_.touching_frames_needed()});
+        planned.push_back({1, interest_a, interest_b, frames_, Want::Frames, problem_.touching_frames_needed()});
     } else if (type_.variant == 'b') {
-        stages_[1].push_back({interest_a_, interest_b_, frames_, Want::Overlap});
+        planned.push_back({1, interest_a, interest_b, frames_, Want::Overlap});
     } else {
         // (c) fails when some contact voxel has t_start^A <= t_end^B, i.e. when for some t the
         // voxels A has reached by t meet the voxels B still occupies at or after t.
-        stages_[1].push_back({add(columns_cumulative(A.interest, z_, true)), add(columns_cumulative(B.interest, z_b_, false)), frames_,
-                              Want::NoOverlap});
+        planned.push_back({1, jobs.add([&] { return columns_cumulative(A.interest, z_, true); }),
+                           jobs.add([&] { return columns_cumulative(B.interest, z_b_, false); }), frames_, Want::NoOverlap});
     }
-    stages_[2].push_back({add(columns_of(A.fidelity, z_, true)), add(columns_of(B.fidelity, z_b_, true)), frames_, Want::NoOverlap});
+    planned.push_back({2, jobs.add([&] { return columns_of(A.fidelity, z_, true); }), jobs.add([&] { return columns_of(B.fidelity, z_b_, true); }),
+                       frames_, Want::NoOverlap});
     if (A.has_clearance())  // multi-party: the other placed objects never meet B's whole body
-        stages_[2].push_back({add(columns_of(A.clearance, z_, true)), add(columns_of(B.whole, z_b_, true)), frames_, Want::NoOverlap});
+        planned.push_back({2, jobs.add([&] { return columns_of(A.clearance, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
+                           frames_, Want::NoOverlap});
     if (problem_.per_frame_visibility()) {
         // Each cone at frame t against the other's body at frame t, on enough frames.
         const int needed = problem_.visibility_frames;
-        stages_[3].push_back({add(columns_of(A.view_cone, z_, true)), add(columns_of(B.whole, z_b_, true)), frames_, Want::Frames, needed});
-        stages_[3].push_back({add(columns_of(A.whole, z_, true)), add(columns_of(B.view_cone, z_b_, true)), frames_, Want::Frames, needed});
+        planned.push_back({3, jobs.add([&] { return columns_of(A.view_cone, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
+                           frames_, Want::Frames, needed});
+        planned.push_back({3, jobs.add([&] { return columns_of(A.whole, z_, true); }), jobs.add([&] { return columns_of(B.view_cone, z_b_, true); }),
+                           frames_, Want::Frames, needed});
     } else if (problem_.visibility) {
-        stages_[3].push_back({add(columns_of(A.view_cone, z_)), add(columns_of(B.whole, z_b_, false)), 0, Want::Overlap});
-        stages_[3].push_back({add(columns_of(A.whole, z_, false)), add(columns_of(B.view_cone, z_b_)), 0, Want::Overlap});
+        planned.push_back({3, jobs.add([&] { return columns_of(A.view_cone, z_); }), jobs.add([&] { return columns_of(B.whole, z_b_, false); }), 0,
+                           Want::Overlap});
+        planned.push_back({3, jobs.add([&] { return columns_of(A.whole, z_, false); }), jobs.add([&] { return columns_of(B.view_cone, z_b_); }), 0,
+                           Want::Overlap});
     }
+    std::vector<GpuVolume*> volumes;
+    for (ColumnVolume& columns : jobs.run()) volumes.push_back(add(std::move(columns)));
+    interest_a_ = volumes[interest_a];
+    interest_b_ = volumes[interest_b];
+    for (const PlannedTest& test : planned)
+        stages_[std::size_t(test.stage)].push_back({volumes[test.fixed], volumes[test.moving], test.frames, test.want, test.needed});
 }
 
 // Overlap maps (SweeperOptions::maps): tests decided for every offset of an angle at once from
@@ -150,14 +193,19 @@ void SweepRun::plan_maps() {
     }
     for (int stage = 2; stage < 4; ++stage)
         for (const OverlapTest& test : stages_[std::size_t(stage)]) optional_maps_[std::size_t(stage)].push_back(map_of(test));
+    std::vector<MapTest*> tests;
     for (auto* all : {&required_maps_, &optional_maps_})
         for (auto& stage : *all)
-            for (MapTest& test : stage) prepare_map(test);
+            for (MapTest& test : stage) tests.push_back(&test);
+    // The runs are plain functions of the volumes, cut on all cores; the uploads follow in order.
+    parallel_for(tests.size(), [&](std::size_t k) {
+        tests[k]->runs = fixed_runs(*tests[k]->fixed, tests[k]->slots);
+        tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);
+    });
+    for (MapTest* test : tests) prepare_map(*test);
 }
 
 void SweepRun::prepare_map(MapTest& test) {
-    test.runs = fixed_runs(*test.fixed, test.slots);
-    test.moving_words = sparse_columns(*test.moving, test.slots);
     // Packed (y, x_first | x_last << 16) relative to the volume's origin.
     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel", test.fixed->nx,

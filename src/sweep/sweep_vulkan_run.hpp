@@ -184,7 +184,7 @@ private:
     void plan_stages();
     // The overlap maps that replace (required) or may replace (optional) each stage's pose tests.
     void plan_maps();
-    // Cuts a map test's fixed runs and uploads them.
+    // Uploads a map test's fixed runs (cut by plan_maps).
     void prepare_map(MapTest& test);
     // Per moving volume: every angle's rotation and mapped bounds; per-frame boxes for PER_FRAME tests.
     void upload_angle_tables();
