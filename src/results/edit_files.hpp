@@ -99,8 +99,8 @@ struct PathsObject {
     const std::vector<ObjectFrameEdit>* frames = nullptr;
     std::vector<std::array<int, 3>> keys;
 };
-// The same for any number of objects over `length` output frames (the two-object picture is this
-// with A and B sharing every key segment). Every object has the same output frames.
+// The same for any number of objects, over their output frames, which every object has the same
+// number of (the two-object picture is this with A and B sharing every key segment).
 void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const std::vector<PathsObject>& objects);
 
 }  // namespace amhv
