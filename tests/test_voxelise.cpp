@@ -59,6 +59,40 @@ TEST(Voxelise, ShapesAreClosedAndOutward) {
     EXPECT_NEAR(shapes::signed_volume(shapes::box({0, 0, 0}, {1, 2, 3})), 6.0, 1e-12);
 }
 
+// Closed means every edge is used as often in one direction as in the other: a missing face, a face
+// turned over and a face twice the same way each leave some edge unbalanced; two closed surfaces
+// sharing an edge stay closed.
+TEST(Voxelise, ClosedMeansEveryEdgeIsUsedAsOftenBothWays) {
+    const TriangleMesh tetrahedron{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}};
+    ASSERT_TRUE(tetrahedron.is_closed());
+    TriangleMesh missing = tetrahedron;
+    missing.triangles.pop_back();
+    EXPECT_FALSE(missing.is_closed());
+    TriangleMesh flipped = tetrahedron;
+    std::swap(flipped.triangles[3][0], flipped.triangles[3][1]);
+    EXPECT_FALSE(flipped.is_closed());
+    TriangleMesh doubled = tetrahedron;
+    doubled.triangles.push_back(doubled.triangles[0]);
+    EXPECT_FALSE(doubled.is_closed());
+    TriangleMesh twice = tetrahedron;
+    twice.triangles.push_back(twice.triangles[0]);
+    twice.triangles.push_back({twice.triangles[0][0], twice.triangles[0][2], twice.triangles[0][1]});
+    EXPECT_TRUE(twice.is_closed());  // a face and its reverse: a closed (flat) surface added
+    TriangleMesh pair = tetrahedron;
+    TriangleMesh other = tetrahedron;
+    for (Vec3& v : other.vertices) v = Vec3(1, 0, 0) - v;
+    for (auto& t : other.triangles) std::swap(t[1], t[2]);  // mirrored: turn the faces back outward
+    pair.append(other);
+    pair.triangles.push_back({0, 1, 2});  // a stray face: open
+    EXPECT_FALSE(pair.is_closed());
+    pair.triangles.pop_back();
+    EXPECT_TRUE(pair.is_closed());
+    EXPECT_TRUE(TriangleMesh{}.is_closed());
+    TriangleMesh beyond = tetrahedron;
+    beyond.triangles[0][0] = 9;  // a vertex the mesh lacks
+    EXPECT_FALSE(beyond.is_closed());
+}
+
 // The Vulkan planner sizes every bucket and bounds the raster's work by each row's cross-section of
 // a triangle. It must hold every column the exact test covers (else keys would overrun a bucket),
 // also where an edge or vertex lies exactly on a column centre, and it should be tight.

@@ -1,7 +1,7 @@
 #include "src/core/geometry.hpp"
 
 #include <algorithm>
-#include <unordered_map>
+#include <vector>
 
 namespace amhv {
 
@@ -13,26 +13,47 @@ Box3 TriangleMesh::bounds() const {
 }
 
 bool TriangleMesh::is_closed() const {
-    // Count directed edges: +1 for (a, b) with a < b, -1 for (b, a). A closed surface sums to 0
-    // on every undirected edge.
-    std::unordered_map<std::uint64_t, int> balance;
-    balance.reserve(triangles.size() * 3);
-    for (const auto& t : triangles) {
-        for (int e = 0; e < 3; ++e) {
-            std::uint32_t a = t[e];
-            std::uint32_t b = t[(e + 1) % 3];
-            if (a == b) continue;
-            std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
-            balance[key] += a < b ? 1 : -1;
+    // Every undirected edge must be used as often from its lower vertex to its higher one as back.
+    // The edges are bucketed by their lower vertex (a counting sort, linear in the edges: a hash
+    // map's node per edge, then a comparison sort, cost more than the voxelisation this gates,
+    // frame after frame); within a bucket, a handful of edges, each must find its reverse.
+    // A face naming a vertex the mesh lacks closes nothing.
+    const std::size_t vertex_count = vertices.size();
+    for (const auto& t : triangles)
+        if (std::max({t[0], t[1], t[2]}) >= vertex_count) return false;
+    std::vector<std::uint32_t> first(std::size_t(vertex_count) + 1, 0);
+    const auto for_each_edge = [&](const auto& visit) {
+        for (const auto& t : triangles)
+            for (std::size_t e = 0; e < 3; ++e)
+                if (t[e] != t[(e + 1) % 3]) visit(t[e], t[(e + 1) % 3]);
+    };
+    for_each_edge([&](std::uint32_t a, std::uint32_t b) { ++first[std::min(a, b) + 1]; });
+    for (std::size_t v = 0; v < vertex_count; ++v) first[v + 1] += first[v];
+    // Per edge: its higher vertex, times two, plus one when it runs from the higher to the lower.
+    std::vector<std::uint64_t> edges(first.back());
+    std::vector<std::uint32_t> next(first.begin(), first.end() - 1);
+    for_each_edge([&](std::uint32_t a, std::uint32_t b) { edges[next[std::min(a, b)]++] = std::uint64_t(std::max(a, b)) * 2 + (a > b); });
+    for (std::size_t v = 0; v < vertex_count; ++v) {
+        const auto begin = edges.begin() + first[v], end = edges.begin() + first[v + 1];
+        std::sort(begin, end);
+        // Sorted, each higher vertex's downward uses follow its upward ones: the counts must match.
+        for (auto at = begin; at != end;) {
+            const std::uint64_t to = *at >> 1;
+            std::ptrdiff_t balance = 0;
+            for (; at != end && (*at >> 1) == to; ++at) balance += (*at & 1) ? -1 : 1;
+            if (balance != 0) return false;
         }
     }
-    return std::all_of(balance.begin(), balance.end(), [](const auto& kv) { return kv.second == 0; });
+    return true;
 }
 
 void TriangleMesh::append(const TriangleMesh& other) {
-    auto offset = static_cast<std::uint32_t>(vertices.size());
+    const auto offset = static_cast<std::uint32_t>(vertices.size());
     vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
-    for (auto t : other.triangles) triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+    const std::size_t first = triangles.size();
+    triangles.insert(triangles.end(), other.triangles.begin(), other.triangles.end());
+    for (std::size_t t = first; t < triangles.size(); ++t)
+        for (auto& index : triangles[t]) index += offset;
 }
 
 Box3 MeshSequence::bounds() const {

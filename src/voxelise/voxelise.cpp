@@ -1,10 +1,12 @@
 #include "src/voxelise/voxelise.hpp"
 
 #include <cmath>
+#include <exception>
 
 #include <spdlog/spdlog.h>
 
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 
@@ -13,28 +15,44 @@ fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid) {
     return {std::int32_t(std::llround(local.x())), std::int32_t(std::llround(local.y())), std::int32_t(std::llround(local.z()))};
 }
 
+namespace {
+
+// One frame in the grid's fixed point; a vertex outside the grid is an error naming the frame.
+void prepare_frame(const MeshFrame& frame, const VoxelGrid& grid, PreparedFrame& prepared) {
+    const std::int64_t limit[3] = {std::int64_t(grid.dims[0]) * fixed::kSubvoxel, std::int64_t(grid.dims[1]) * fixed::kSubvoxel,
+                                   std::int64_t(grid.dims[2]) * fixed::kSubvoxel};
+    prepared.source = frame.source;
+    prepared.closed = frame.mesh.is_closed();
+    std::vector<fixed::Point3> points;
+    points.reserve(frame.mesh.vertices.size());
+    for (const Vec3& v : frame.mesh.vertices) {
+        fixed::Point3 q = quantise(v, grid);
+        if (q.x < 0 || q.y < 0 || q.z < 0 || q.x > limit[0] || q.y > limit[1] || q.z > limit[2])
+            fail(frame.source, "vertex ({:.4f}, {:.4f}, {:.4f}) lies outside the segment's voxel grid", v.x(), v.y(), v.z());
+        points.push_back(q);
+    }
+    prepared.triangles.reserve(frame.mesh.triangles.size());
+    for (const auto& t : frame.mesh.triangles) prepared.triangles.push_back({points[t[0]], points[t[1]], points[t[2]]});
+}
+
+}  // namespace
+
+// Frames on every core; of several bad frames, the first one's error is the one reported (the
+// same message on every run).
 VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid) {
     VoxelisationInput input;
     input.grid = grid;
     input.frames.resize(frames.size());
-    const std::int64_t limit[3] = {std::int64_t(grid.dims[0]) * fixed::kSubvoxel, std::int64_t(grid.dims[1]) * fixed::kSubvoxel,
-                                   std::int64_t(grid.dims[2]) * fixed::kSubvoxel};
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-        const MeshFrame& frame = *frames[f];
-        PreparedFrame& prepared = input.frames[f];
-        prepared.source = frame.source;
-        prepared.closed = frame.mesh.is_closed();
-        std::vector<fixed::Point3> points;
-        points.reserve(frame.mesh.vertices.size());
-        for (const Vec3& v : frame.mesh.vertices) {
-            fixed::Point3 q = quantise(v, grid);
-            if (q.x < 0 || q.y < 0 || q.z < 0 || q.x > limit[0] || q.y > limit[1] || q.z > limit[2])
-                fail(frame.source, "vertex ({:.4f}, {:.4f}, {:.4f}) lies outside the segment's voxel grid", v.x(), v.y(), v.z());
-            points.push_back(q);
+    std::vector<std::exception_ptr> errors(frames.size());
+    parallel_for(frames.size(), [&](std::size_t f) {
+        try {
+            prepare_frame(*frames[f], grid, input.frames[f]);
+        } catch (...) {
+            errors[f] = std::current_exception();
         }
-        prepared.triangles.reserve(frame.mesh.triangles.size());
-        for (const auto& t : frame.mesh.triangles) prepared.triangles.push_back({points[t[0]], points[t[1]], points[t[2]]});
-    }
+    });
+    for (const auto& error : errors)
+        if (error) std::rethrow_exception(error);
     return input;
 }
 
