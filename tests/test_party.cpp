@@ -174,6 +174,42 @@ TEST(Party, TheThreePersonSceneKeepsEveryPairApart) {
     EXPECT_EQ(model.materials[2].name, "C");
 }
 
+// The three-person edit on both backends at 3 cm and 6 degrees (coarse, so that the sanitizer job
+// runs the whole edit for its host code in about a minute; it leaves the 1 cm scene above to the
+// main job): every file is the same bytes, the placements, the check's rows, scene.glb, the edited
+// takes and the pictures alike; result.json differs only where it names the backend.
+TEST(Party, AThreePersonEditIsTheSameBytesOnBothBackends) {
+    test::TempDir dir;
+    std::string text = trio_scene();
+    text.replace(text.find("voxel = 0.01"), 12, "voxel = 0.03");
+    text.replace(text.find("angle_step_deg = 2.0"), 20, "angle_step_deg = 6.0");
+    const fs::path scene = write_scene(dir, text);
+    for (const char* backend : {"vulkan", "cpu"}) {
+        const auto run = test::run_amhv(fmt::format("edit '{}' --backend {} --no-timings --no-page --out '{}'", scene.string(), backend,
+                                                    (dir.path() / backend).string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+        EXPECT_NE(run.output.find("C against A+B"), std::string::npos) << run.output;
+    }
+    const fs::path vulkan = dir.path() / "vulkan", cpu = dir.path() / "cpu";
+    std::size_t files = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(vulkan)) {
+        if (!entry.is_regular_file()) continue;
+        ++files;
+        const fs::path name = fs::relative(entry.path(), vulkan);
+        if (name == "result.json") continue;
+        EXPECT_TRUE(test::read_text(entry.path()) == test::read_text(cpu / name)) << name;
+    }
+    std::size_t cpu_files = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(cpu)) cpu_files += entry.is_regular_file();
+    EXPECT_EQ(cpu_files, files);
+    EXPECT_GT(files, 303u);  // a PLY per output frame, and the rest
+    auto result_vulkan = nlohmann::json::parse(test::read_text(vulkan / "result.json"));
+    auto result_cpu = nlohmann::json::parse(test::read_text(cpu / "result.json"));
+    EXPECT_EQ(result_cpu.at("backend"), "cpu");
+    for (auto* result : {&result_vulkan, &result_cpu}) result->erase("backend"), result->erase("device");
+    EXPECT_TRUE(result_vulkan == result_cpu);
+    EXPECT_EQ(result_vulkan.at("stages")[1].at("against"), nlohmann::json({"A", "B"}));
+}
 
 // Acceptance: with A and B where the first placement put them, a brute force over the newcomer C's
 // poses, each judged pair by pair (against A alone by the reference sweep of the A-C pair, against
