@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -43,6 +44,27 @@ TEST(ParallelFor, AnExceptionReachesTheCaller) {
         // Items after the failure stop being handed out (those already taken finish).
         EXPECT_LT(started.load(), 200) << threads;
         EXPECT_GE(started.load(), 18) << threads;
+    }
+}
+
+// Of several failing items, the lowest one's exception is the one reported, whichever threw first.
+TEST(ParallelFor, TheLowestFailingItemIsReported) {
+    for (unsigned threads : {2u, 4u}) {
+        try {
+            parallel_for(
+                64,
+                [&](std::size_t i) {
+                    if (i == 17) {
+                        std::this_thread::sleep_for(std::chrono::milliseconds(50));  // throws after the items above it
+                        throw std::runtime_error("item 17");
+                    }
+                    if (i > 17) throw std::runtime_error("item " + std::to_string(i));
+                },
+                threads);
+            ADD_FAILURE() << "no exception with " << threads << " threads";
+        } catch (const std::runtime_error& e) {
+            EXPECT_STREQ(e.what(), "item 17") << threads;
+        }
     }
 }
 

@@ -175,8 +175,8 @@ TEST(Party, TheThreePersonSceneKeepsEveryPairApart) {
 }
 
 // The three-person edit on both backends at 3 cm and 6 degrees (coarse, so that the sanitizer job
-// runs the whole edit for its host code in about a minute; it leaves the 1 cm scene above to the
-// main job): every file is the same bytes, the placements, the check's rows, scene.glb, the edited
+// runs the whole edit for its host code in about 150 s instrumented, where the 1 cm scene above,
+// left to the main job, took 270 s): every file is the same bytes, the placements, the check's rows, scene.glb, the edited
 // takes and the pictures alike; result.json differs only where it names the backend.
 TEST(Party, AThreePersonEditIsTheSameBytesOnBothBackends) {
     test::TempDir dir;

@@ -78,12 +78,15 @@ TEST(Voxelise, ClosedMeansEveryEdgeIsUsedAsOftenBothWays) {
     twice.triangles.push_back(twice.triangles[0]);
     twice.triangles.push_back({twice.triangles[0][0], twice.triangles[0][2], twice.triangles[0][1]});
     EXPECT_TRUE(twice.is_closed());  // a face and its reverse: a closed (flat) surface added
+    // A second tetrahedron on vertices 0, 1, 4 and 5: edge 0-1 is used by four faces.
     TriangleMesh pair = tetrahedron;
-    TriangleMesh other = tetrahedron;
-    for (Vec3& v : other.vertices) v = Vec3(1, 0, 0) - v;
-    for (auto& t : other.triangles) std::swap(t[1], t[2]);  // mirrored: turn the faces back outward
-    pair.append(other);
-    pair.triangles.push_back({0, 1, 2});  // a stray face: open
+    pair.vertices.push_back({0, -1, 0});
+    pair.vertices.push_back({0, 0, -1});
+    for (const auto& t : tetrahedron.triangles) {
+        const auto to_second = [](std::uint32_t v) { return v < 2 ? v : v + 2; };
+        pair.triangles.push_back({to_second(t[0]), to_second(t[1]), to_second(t[2])});
+    }
+    pair.triangles.push_back({0, 1, 4});  // a stray face on the shared edge: open
     EXPECT_FALSE(pair.is_closed());
     pair.triangles.pop_back();
     EXPECT_TRUE(pair.is_closed());

@@ -15,13 +15,12 @@ Box3 TriangleMesh::bounds() const {
 bool TriangleMesh::is_closed() const {
     // Every undirected edge must be used as often from its lower vertex to its higher one as back.
     // The edges are bucketed by their lower vertex (a counting sort, linear in the edges: a hash
-    // map's node per edge, then a comparison sort, cost more than the voxelisation this gates,
-    // frame after frame); within a bucket, a handful of edges, each must find its reverse.
-    // A face naming a vertex the mesh lacks closes nothing.
+    // map with a node per edge cost more than the voxelisation this gates, frame after frame); a
+    // bucket holds a handful of edges. A face naming a vertex the mesh lacks closes nothing.
     const std::size_t vertex_count = vertices.size();
     for (const auto& t : triangles)
         if (std::max({t[0], t[1], t[2]}) >= vertex_count) return false;
-    std::vector<std::uint32_t> first(std::size_t(vertex_count) + 1, 0);
+    std::vector<std::uint32_t> first(vertex_count + 1, 0);
     const auto for_each_edge = [&](const auto& visit) {
         for (const auto& t : triangles)
             for (std::size_t e = 0; e < 3; ++e)

@@ -22,8 +22,10 @@ public:
             try {
                 work_(i);
             } catch (...) {
+                // Items are handed out in order, so every item below this one has started: keeping
+                // the lowest failing item's exception reports the same failure on every run.
                 const std::lock_guard lock(failure_lock_);
-                if (!failure_) failure_ = std::current_exception();
+                if (!failure_ || i < failed_item_) failure_ = std::current_exception(), failed_item_ = i;
                 failed_ = true;
             }
         }
@@ -38,6 +40,7 @@ private:
     std::atomic<std::size_t> next_{0};
     std::atomic<bool> failed_{false};
     std::exception_ptr failure_;
+    std::size_t failed_item_ = 0;
     std::mutex failure_lock_;
 };
 

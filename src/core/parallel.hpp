@@ -11,7 +11,8 @@ namespace amhv {
 
 // Calls work(i) for every i in [0, count), in any order, on up to `threads` threads (0: one per
 // core); the calling thread takes part. Items are handed out one at a time, so uneven items
-// balance. The first exception any call throws is rethrown here, after every thread has stopped.
+// balance. Once a call throws, no further items are handed out; after every thread has stopped, the
+// exception of the lowest item that threw is rethrown here (the same one on every run).
 void parallel_for(std::size_t count, const std::function<void(std::size_t)>& work, unsigned threads = 0);
 
 }  // namespace amhv

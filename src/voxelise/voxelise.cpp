@@ -1,7 +1,6 @@
 #include "src/voxelise/voxelise.hpp"
 
 #include <cmath>
-#include <exception>
 
 #include <spdlog/spdlog.h>
 
@@ -37,22 +36,12 @@ void prepare_frame(const MeshFrame& frame, const VoxelGrid& grid, PreparedFrame&
 
 }  // namespace
 
-// Frames on every core; of several bad frames, the first one's error is the one reported (the
-// same message on every run).
+// Frames on every core; of several bad frames, the first one's error is reported (parallel_for).
 VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid) {
     VoxelisationInput input;
     input.grid = grid;
     input.frames.resize(frames.size());
-    std::vector<std::exception_ptr> errors(frames.size());
-    parallel_for(frames.size(), [&](std::size_t f) {
-        try {
-            prepare_frame(*frames[f], grid, input.frames[f]);
-        } catch (...) {
-            errors[f] = std::current_exception();
-        }
-    });
-    for (const auto& error : errors)
-        if (error) std::rethrow_exception(error);
+    parallel_for(frames.size(), [&](std::size_t f) { prepare_frame(*frames[f], grid, input.frames[f]); });
     return input;
 }
 
