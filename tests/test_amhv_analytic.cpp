@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -83,6 +84,36 @@ TEST(AmhvAnalytic, RecycledVolumesStartEmpty) {
     release_recycled_volume();
     Amhv after_release(grid, 40);
     EXPECT_TRUE(std::all_of(after_release.mask().begin(), after_release.mask().end(), [](std::uint32_t word) { return word == 0; }));
+}
+
+// The parts of the summary computed on their own must be its values to the bit: an empty volume,
+// one voxel, and scattered voxels over frames in every word on an off-lattice grid.
+TEST(AmhvAnalytic, PartsOfTheSummaryAreItsValues) {
+    VoxelGrid grid;
+    grid.dims = {37, 23, 41};
+    grid.voxel = 0.0073;
+    grid.origin = Vec3(-1.234567, 0.987654, 0.0111);
+    const auto expect_parts = [](const Amhv& volume, const char* what) {
+        const AmhvSummary summary = summarise(volume);
+        EXPECT_EQ(any_occupied(volume), summary.occupied_voxels > 0) << what;
+        const Box3 bounds = occupied_bounds(volume);
+        EXPECT_EQ(bounds.empty(), summary.bounds.empty()) << what;
+        if (!summary.bounds.empty()) {
+            EXPECT_EQ(bounds.min, summary.bounds.min) << what;
+            EXPECT_EQ(bounds.max, summary.bounds.max) << what;
+        }
+        EXPECT_EQ(occupied_root(volume), summary.root) << what;
+    };
+    Amhv volume(grid, 70);
+    expect_parts(volume, "empty");
+    volume.set(grid.index(36, 0, 17), 69);
+    expect_parts(volume, "one voxel in the last word");
+    EXPECT_TRUE(any_occupied(volume));
+    std::mt19937 random(5);
+    for (int k = 0; k < 900; ++k)
+        volume.set(grid.index(int(random() % 30) + 3, int(random() % 20), int(random() % 35) + 2), int(random() % 70));
+    expect_parts(volume, "scattered");
+    EXPECT_NE(occupied_root(volume), Vec3(Vec3::Zero()));
 }
 
 TEST(AmhvAnalytic, LabelsFollowTheSurfaces) {

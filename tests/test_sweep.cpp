@@ -813,8 +813,83 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
                 ASSERT_EQ(runs[r].x_last, expected[r].x_last) << degrees << " run " << r;
             }
             EXPECT_EQ(longest, expected_longest) << degrees;
+            // Ordered by map pass: the same runs grouped stably by pass, with each pass's first.
+            // Nine passes need z itself where a key's last five bits are zero.
+            for (const int passes : {5, 9}) {
+                std::vector<SliceRun> by_pass{{7, 7, 7, 7}};
+                std::vector<std::size_t> pass_first;
+                append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, by_pass, passes, &pass_first);
+                ASSERT_EQ(pass_first.size(), std::size_t(passes) + 1);
+                std::size_t at = 1;
+                for (int pass = 0; pass < passes; ++pass) {
+                    ASSERT_EQ(pass_first[std::size_t(pass)], at) << degrees << " pass " << pass;
+                    for (std::size_t r = 1; r < runs.size(); ++r) {
+                        if (map_pass_of((runs[r].key - key_base) % zbits, runs[r].y, passes) != pass) continue;
+                        ASSERT_LT(at, by_pass.size());
+                        ASSERT_EQ(by_pass[at].key, runs[r].key) << degrees << " pass " << pass;
+                        ASSERT_EQ(by_pass[at].y, runs[r].y) << degrees << " pass " << pass;
+                        ASSERT_EQ(by_pass[at].x_first, runs[r].x_first) << degrees << " pass " << pass;
+                        ++at;
+                    }
+                }
+                EXPECT_EQ(pass_first.back(), at);
+                EXPECT_EQ(by_pass.size(), at);
+            }
         }
     }
+}
+
+// Fixed runs carry, per key, the box of its runs, each row's hull (first x_first to last x_last),
+// and per level L the hull of 2^L rows from each row on (cut short at the key's last row): the
+// pruning of pulled runs tests 2^L rows of poses at once with them.
+TEST(Sweep, FixedRunsKnowEachRowsAndEachWindowsHull) {
+    std::mt19937 random(23);
+    ColumnVolume volume = blank_columns(-5, 40, 61, 90, 3, 2);
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < volume.nx; ++x)
+            for (std::size_t w = 0; w < volume.column_words(); ++w)
+                if ((x / 9 + y / 13 + int(w)) % 4 == 0 || random() % 11 == 0) volume.column(x, y)[w] = std::uint32_t(random()) & std::uint32_t(random());
+    volume.finish();
+    const std::vector<int> slots{2, 0};
+    const FixedRuns runs = fixed_runs(volume, slots);
+    using Hull = std::array<std::int32_t, 2>;
+    const auto join = [](Hull a, const Hull& b) {
+        if (b[0] > b[1]) return a;
+        if (a[0] > a[1]) return b;
+        return Hull{std::min(a[0], b[0]), std::max(a[1], b[1])};
+    };
+    ASSERT_EQ(runs.window_hulls.size(), std::size_t(FixedRuns::kHullLevels - 1));
+    std::size_t keys_with_runs = 0, long_keys = 0;
+    for (std::size_t key = 0; key < runs.by_key.size(); ++key) {
+        const auto [first, count] = runs.by_key[key];
+        if (count == 0) {
+            EXPECT_GT(runs.key_boxes[key][0], runs.key_boxes[key][1]);
+            continue;
+        }
+        ++keys_with_runs;
+        const auto& box = runs.key_boxes[key];
+        std::vector<Hull> rows(std::size_t(box[3] - box[2] + 1), Hull{1, 0});
+        for (std::int32_t r = first; r < first + count; ++r) {
+            const SliceRun& run = runs.runs[std::size_t(r)];
+            ASSERT_GE(run.y, box[2]);
+            ASSERT_LE(run.y, box[3]);
+            rows[std::size_t(run.y - box[2])] = join(rows[std::size_t(run.y - box[2])], {run.x_first, run.x_last});
+        }
+        long_keys += rows.size() > 64;
+        for (std::size_t r = 0; r < rows.size(); ++r) {
+            const std::size_t at = runs.row_hull_first[key] + r;
+            EXPECT_EQ(runs.row_hulls[at], rows[r]) << key << " row " << r;
+            for (int level = 1; level < FixedRuns::kHullLevels; ++level) {
+                Hull window{1, 0};
+                for (std::size_t k = r; k < std::min(rows.size(), r + (std::size_t(1) << level)); ++k) window = join(window, rows[k]);
+                const Hull& kept = runs.window_hulls[std::size_t(level - 1)][at];
+                if (window[0] > window[1]) EXPECT_GT(kept[0], kept[1]) << key << " row " << r << " level " << level;
+                else EXPECT_EQ(kept, window) << key << " row " << r << " level " << level;
+            }
+        }
+    }
+    EXPECT_GT(keys_with_runs, 100u);
+    EXPECT_GT(long_keys, 10u);  // windows cut short at the end of a key's box, and spanning rows without runs
 }
 
 // Descriptors (docs/method.md section 6): B straight ahead of A, facing A, is L = |s|, thetaA = thetaB = 0.

@@ -1,5 +1,6 @@
 #include "src/core/amhv.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <mutex>
 
@@ -127,6 +128,44 @@ AmhvSummary summarise(const Amhv& volume) {
             }
     if (summary.occupied_voxels) summary.root = sum / double(summary.occupied_voxels);
     return summary;
+}
+
+bool any_occupied(const Amhv& volume) {
+    return std::any_of(volume.mask().begin(), volume.mask().end(), [](std::uint32_t word) { return word != 0u; });
+}
+
+// A voxel centre grows with each of its indices (voxel > 0; rounding keeps the order), so the
+// bounds of the occupied cubes are those of the extreme indices' cubes.
+Box3 occupied_bounds(const Amhv& volume) {
+    const auto& grid = volume.grid();
+    std::array<int, 3> low{grid.dims[0], grid.dims[1], grid.dims[2]}, high{-1, -1, -1};
+    for (int z = 0; z < grid.dims[2]; ++z)
+        for (int y = 0; y < grid.dims[1]; ++y)
+            for (int x = 0; x < grid.dims[0]; ++x) {
+                if (!volume.any(grid.index(x, y, z))) continue;
+                low = {std::min(low[0], x), std::min(low[1], y), std::min(low[2], z)};
+                high = {std::max(high[0], x), std::max(high[1], y), std::max(high[2], z)};
+            }
+    Box3 bounds;
+    if (high[0] < 0) return bounds;
+    bounds.extend(grid.centre(low[0], low[1], low[2]) - Vec3::Constant(grid.voxel / 2));
+    bounds.extend(grid.centre(high[0], high[1], high[2]) + Vec3::Constant(grid.voxel / 2));
+    return bounds;
+}
+
+// The centres summed in summarise's order, so the mean is the same to the bit.
+Vec3 occupied_root(const Amhv& volume) {
+    const auto& grid = volume.grid();
+    Vec3 sum = Vec3::Zero();
+    std::size_t occupied = 0;
+    for (int z = 0; z < grid.dims[2]; ++z)
+        for (int y = 0; y < grid.dims[1]; ++y)
+            for (int x = 0; x < grid.dims[0]; ++x) {
+                if (!volume.any(grid.index(x, y, z))) continue;
+                ++occupied;
+                sum += grid.centre(x, y, z);
+            }
+    return occupied ? Vec3(sum / double(occupied)) : Vec3(Vec3::Zero());
 }
 
 }  // namespace amhv

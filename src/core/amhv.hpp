@@ -119,5 +119,11 @@ struct AmhvSummary {
 };
 
 AmhvSummary summarise(const Amhv& volume);
+// Parts of the summary on their own, for callers that need only one (each costs a fraction of the
+// whole): whether any voxel is occupied (stops at the first), summarise(volume).bounds, and
+// summarise(volume).root, the same values to the bit.
+bool any_occupied(const Amhv& volume);
+Box3 occupied_bounds(const Amhv& volume);
+Vec3 occupied_root(const Amhv& volume);
 
 }  // namespace amhv

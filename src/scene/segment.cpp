@@ -129,7 +129,7 @@ std::optional<TrackSample> mean_track(const ObjectSource& object, const std::vec
 }
 
 double reach_from(const Amhv& volume, const Vec3& root) {
-    Box3 b = summarise(volume).bounds;
+    Box3 b = occupied_bounds(volume);
     if (b.empty()) return 0;
     double reach = 0;
     for (int c = 0; c < 4; ++c) {
@@ -430,7 +430,7 @@ ConeVolume segment_cone(const SweepObject& self, ObjectSource& source, const std
         cone.eye = mean->eye;
         cone.gaze = mean->gaze.normalized();
     } else {
-        Box3 bounds = summarise(self.whole).bounds;
+        Box3 bounds = occupied_bounds(self.whole);
         cone.eye = Vec3(self.root.x(), self.root.y(), bounds.max.z() - 0.1);
         cone.gaze = Vec3(self.facing.x(), self.facing.y(), 0);
     }
@@ -499,7 +499,7 @@ Amhv member_volume(ObjectSource& group, bool partner, int first, const std::vect
 // may hold them too.)
 void group_side(SweepObject& a, ObjectSource& group, int first, const std::vector<int>& relative, Voxeliser& voxeliser) {
     Amhv partner = member_volume(group, true, first, relative, a.whole.grid(), voxeliser);
-    a.root = summarise(partner).root;
+    a.root = occupied_root(partner);
     if (group.members().size() > 1) a.clearance = member_volume(group, false, first, relative, a.whole.grid(), voxeliser);
     a.whole = std::move(partner);
 }
@@ -529,7 +529,7 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
     p.voxel = h;
     p.angle_step_deg = scene.sampling.angle_step_deg;
     for (const SweepObject* o : {&p.a, &p.b})
-        if (summarise(o->interest).occupied_voxels == 0) fail(where, "object {}'s volume of interest is empty", o->name);
+        if (!any_occupied(o->interest)) fail(where, "object {}'s volume of interest is empty", o->name);
     p.range = automatic_range(p.a, p.b, h, scene.sampling.angles());
     narrow_range(p.range, h, scene.sampling.x_range ? &*scene.sampling.x_range : nullptr,
                  scene.sampling.y_range ? &*scene.sampling.y_range : nullptr);

@@ -123,7 +123,7 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
         case PartRule::WholeMinusInterest: object.fidelity = difference(object.whole, object.interest); break;
     }
     if (parts.grow_interest > 0) object.interest = grow_part(object.interest, parts.grow_interest);
-    object.root = summarise(object.whole).root;
+    object.root = occupied_root(object.whole);
     return object;
 }
 

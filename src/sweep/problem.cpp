@@ -42,7 +42,7 @@ void validate_object(const SweepObject& object, const SweepProblem& problem) {
     }
     if (!is_lattice_aligned(object.whole.grid(), problem.voxel))
         fail(what, "its grid is not on the {} m lattice or is too far from the origin", problem.voxel);
-    if (summarise(object.interest).occupied_voxels == 0) fail(what, "its volume of interest is empty in this key segment");
+    if (!any_occupied(object.interest)) fail(what, "its volume of interest is empty in this key segment");
     if (problem.visibility) {
         const VoxelGrid& cone = object.view_cone.grid;
         const int cones = problem.per_frame_visibility() ? frames : 1;

@@ -69,7 +69,44 @@ void check_lattice(std::int64_t x0, std::int64_t y0, int nx, int ny) {
         fail("sweep", "internal: lattice indices beyond what slice runs store");
 }
 
+// map_pass_of for a run with key `key` (z = key % zbits): zbits is a multiple of 32, so z's last
+// five bits are the key's, and they alone settle it unless all five are zero and more than six
+// passes are asked for (a division per run was a tenth of the time of ordering runs by pass).
+int map_pass_of_run(std::int32_t key, int zbits, int y, int passes) {
+    const std::uint32_t low = std::uint32_t(key) & 31u;
+    const int z = low != 0u || passes <= 6 ? int(low) : key % zbits;
+    return map_pass_of(z, y, passes);
+}
+
+// Fills FixedRuns::window_hulls from row_hulls: each level joins two windows of the level below.
+void add_window_hulls(FixedRuns& result) {
+    using Hull = std::array<std::int32_t, 2>;
+    const auto join = [](const Hull& a, const Hull& b) {
+        if (a[0] > a[1]) return b;
+        if (b[0] > b[1]) return a;
+        return Hull{std::min(a[0], b[0]), std::max(a[1], b[1])};
+    };
+    result.window_hulls.assign(FixedRuns::kHullLevels - 1, {});
+    const std::vector<Hull>* below = &result.row_hulls;
+    for (int level = 1; level < FixedRuns::kHullLevels; ++level) {
+        std::vector<Hull>& windows = result.window_hulls[std::size_t(level - 1)];
+        windows.resize(result.row_hulls.size());
+        const std::size_t half = std::size_t(1) << (level - 1);
+        for (std::size_t k = 0; k < result.by_key.size(); ++k) {
+            const std::size_t first = result.row_hull_first[k];
+            const std::size_t end = k + 1 < result.by_key.size() ? result.row_hull_first[k + 1] : result.row_hulls.size();
+            for (std::size_t r = first; r < end; ++r) windows[r] = r + half < end ? join((*below)[r], (*below)[r + half]) : (*below)[r];
+        }
+        below = &windows;
+    }
+}
+
 }  // namespace
+
+int map_pass_of(int z, int y, int passes) {
+    const int last = passes - 1;
+    return last - std::min({std::countr_zero(std::uint32_t(z)), std::countr_zero(std::uint32_t(y)), last});
+}
 
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) {
     check_lattice(volume.x0, volume.y0, volume.nx, volume.ny);
@@ -121,6 +158,7 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
                                      : std::array<std::int32_t, 2>{std::min(hull[0], run.x_first), std::max(hull[1], run.x_last)};
         }
     }
+    add_window_hulls(result);
     return result;
 }
 
@@ -149,12 +187,13 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
-                       std::vector<SliceRun>& out) {
+                       std::vector<SliceRun>& out, int passes, std::vector<std::size_t>* pass_first) {
     const ColumnVolume& moving = *sparse.volume;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
     if (clips.size() != sparse.slots.size()) fail("sweep", "internal: {} clips for {} slots", clips.size(), sparse.slots.size());
+    if (passes < 1) fail("sweep", "internal: {} map passes", passes);
     // One pass over the union of the slots' mapped boxes within their clips: each A column is
     // mapped once and reads the non-zero words of every slot from its B column. Outside a slot's
     // own box its words are zero, and outside its clip they are skipped, so the runs are those of
@@ -201,12 +240,22 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
         }
         row.end_row(box[2]);
     }
-    first.assign(key_count + 1, 0u);
-    for (const SliceRun& run : visited) ++first[std::size_t(run.key - key_base) + 1];
-    for (std::size_t k = 0; k < key_count; ++k) first[k + 1] += first[k];
+    // Buckets (pass, key) in that order.
+    const auto bucket = [&](const SliceRun& run) {
+        const std::size_t key = std::size_t(run.key - key_base);
+        return passes == 1 ? key : std::size_t(map_pass_of_run(run.key, zbits, run.y, passes)) * key_count + key;
+    };
+    const std::size_t buckets = std::size_t(passes) * key_count;
+    first.assign(buckets + 1, 0u);
+    for (const SliceRun& run : visited) ++first[bucket(run) + 1];
+    for (std::size_t b = 0; b < buckets; ++b) first[b + 1] += first[b];
     const std::size_t base = out.size();
+    if (pass_first) {
+        pass_first->resize(std::size_t(passes) + 1);
+        for (int p = 0; p <= passes; ++p) (*pass_first)[std::size_t(p)] = base + first[std::size_t(p) * key_count];
+    }
     out.resize(base + visited.size());
-    for (const SliceRun& run : visited) out[base + first[std::size_t(run.key - key_base)]++] = run;
+    for (const SliceRun& run : visited) out[base + first[bucket(run)]++] = run;
     return longest;
 }
 

@@ -36,6 +36,11 @@ struct FixedRuns {
     // last), from row_hull_first[key] on.
     std::vector<std::array<std::int32_t, 2>> row_hulls;
     std::vector<std::uint32_t> row_hull_first;
+    // Per level L = 1 .. kHullLevels - 1 (window_hulls[L - 1]), indexed as row_hulls: the hull of
+    // the key's rows r .. r + 2^L - 1 (fewer at the end of its box), so that one test of a box of
+    // poses covers 2^L rows.
+    static constexpr int kHullLevels = 7;
+    std::vector<std::vector<std::array<std::int32_t, 2>>> window_hulls;
 };
 
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
@@ -58,13 +63,22 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 // Per slot index, a box of A columns ([x_first, y_first, x_last, y_last], global A lattice).
 using SlotClips = std::vector<std::array<std::int32_t, 4>>;
 
+// The overlap-map pass of the runs at z slice `z` and row `y` out of `passes`: coarse to fine in
+// both, cells whose z and y have more trailing zeros go first. With 5 passes: the cells where z
+// and y are both multiples of 16, then of 8, 4, 2, and the rest. Each pass spans the whole volume,
+// so early passes find most overlaps with few pairs: a pose in contact usually overlaps over
+// several slices and rows, and one cell of them settles it. (Over z alone, a part a few slices
+// thick, such as a sword held level, put nearly all its pairs in one pass.)
+int map_pass_of(int z, int y, int passes);
+
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
 // mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs cut to
-// its box in `clips`. The appended runs are sorted by key, then y, then x. Returns the longest run
-// appended.
+// its box in `clips`. The appended runs are sorted by map pass (map_pass_of, of `passes`), then
+// key, then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first run
+// (and one more at the end). Returns the longest run appended.
 int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
-                       std::vector<SliceRun>& out);
+                       std::vector<SliceRun>& out, int passes = 1, std::vector<std::size_t>* pass_first = nullptr);
 
 // Per slot of `slots`, the pulled columns that can meet that slot of `fixed` at an offset (i, j)
 // with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed column g + (i, j),

@@ -2,6 +2,7 @@
 // an angle at once from pairs of slice runs, in passes over the z slices and rows, coarse to fine,
 // and only where poses are in play.
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -14,18 +15,6 @@
 namespace amhv::gpu::sweep_detail {
 
 namespace {
-
-// The overlap-map pass of the runs at z slice `z` and row `y` out of `passes`: coarse to fine in
-// both, cells whose z and y have more trailing zeros go first. With 5 passes: the cells where z
-// and y are both multiples of 16, then of 8, 4, 2, and the rest. Each pass spans the whole volume,
-// so early passes find most overlaps with few pairs: a pose in contact usually overlaps over
-// several slices and rows, and one cell of them settles it. (Over z alone, a part a few slices
-// thick, such as a sword held level, put nearly all its pairs in one pass.)
-int pass_of(int z, int y, int passes) {
-    const int last = passes - 1;
-    return last - std::min({std::countr_zero(std::uint32_t(z)), std::countr_zero(std::uint32_t(y)), last});
-}
-
 // Counts of the poses in play in the box `rows` (2D prefix sums of `open`, one row of `width` poses
 // per j), so that a box of offsets within it is tested for poses in play in constant time. Only
 // the box's prefix rows and columns are filled: every query is clamped to the box.
@@ -47,15 +36,120 @@ void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, const B
     }
 }
 
+static_assert(std::endian::native == std::endian::little, "flags are spread through 64-bit words in memory order");
+
+// Per byte value, the 8 flag bytes (in memory order) that are 1 where its bits are set: a map
+// word becomes 32 pose flags with four lookups instead of 32 shifts.
+constexpr std::array<std::uint64_t, 256> kFlagsOfByte = [] {
+    std::array<std::uint64_t, 256> table{};
+    for (std::size_t value = 0; value < table.size(); ++value)
+        for (int bit = 0; bit < 8; ++bit)
+            if ((value >> bit) & 1u) table[value] |= std::uint64_t(1) << (8 * bit);
+    return table;
+}();
+constexpr std::uint64_t kAllFlags = 0x0101010101010101ull;
+
+// flags[0..31] = bit i of `bits` (XOR 1 where `flip`).
+void write_flags(std::uint32_t bits, bool flip, std::uint8_t* flags) {
+    for (int part = 0; part < 4; ++part) {
+        const std::uint64_t eight = kFlagsOfByte[(bits >> (8 * part)) & 0xffu] ^ (flip ? kAllFlags : 0u);
+        std::memcpy(flags + 8 * part, &eight, sizeof eight);
+    }
+}
+
+// flags[0..31] &= bit i of `keep`.
+void keep_flags(std::uint32_t keep, std::uint8_t* flags) {
+    for (int part = 0; part < 4; ++part) {
+        std::uint64_t eight;
+        std::memcpy(&eight, flags + 8 * part, sizeof eight);
+        eight &= kFlagsOfByte[(keep >> (8 * part)) & 0xffu];
+        std::memcpy(flags + 8 * part, &eight, sizeof eight);
+    }
+}
+
+// Poses in play in columns i0..i1 and rows j0..j1 (the prefix sums of count_poses_in_play).
+std::uint32_t count_in_play(const PulledPruner& pruner, std::size_t stride, int i0, int i1, int j0, int j1) {
+    const auto at = [&](int j, int i) { return pruner.prefix[std::size_t(j) * stride + std::size_t(i)]; };
+    return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
+}
+
+// The rows j of the pose map where one pulled run can set a bit of a pose in play: those whose
+// fixed row's hull (FixedRuns::row_hulls), moved by the run, holds one. A box of 2^L rows is tested
+// at once with the hull of its fixed rows (window_hulls), and split only where it holds a pose in
+// play, so a band that the run reaches nowhere costs one test per 64 rows, not one per row.
+class RunReach {
+public:
+    RunReach(const PulledPruner& pruner, std::size_t stride, const Band& rows, const FixedRuns& fixed, std::size_t fixed_key,
+             std::ptrdiff_t hull_of_row_0, std::int32_t i_first_of_run, std::int32_t i_last_of_run)
+        : pruner_(pruner), stride_(stride), rows_(rows), i_first_(i_first_of_run), i_last_(i_last_of_run) {
+        hull_of_row_0_ = std::ptrdiff_t(fixed.row_hull_first[fixed_key]) + hull_of_row_0;
+        levels_[0] = fixed.row_hulls.data();
+        for (int level = 1; level < FixedRuns::kHullLevels; ++level) levels_[std::size_t(level)] = fixed.window_hulls[std::size_t(level - 1)].data();
+    }
+
+    // The first and the last reached row of j0..j1 (-1: none).
+    int first(int j0, int j1) const {
+        for (int j = j0; j <= j1;) {
+            const int level = level_fitting(j1 - j + 1);
+            if (const int found = first_in(j, level); found >= 0) return found;
+            j += 1 << level;
+        }
+        return -1;
+    }
+    int last(int j0, int j1) const {
+        for (int j = j1; j >= j0;) {
+            const int level = level_fitting(j - j0 + 1);
+            if (const int found = last_in(j - (1 << level) + 1, level); found >= 0) return found;
+            j -= 1 << level;
+        }
+        return -1;
+    }
+
+private:
+    static int level_fitting(int rows) { return std::min(FixedRuns::kHullLevels - 1, int(std::bit_width(std::uint32_t(rows))) - 1); }
+
+    // Whether rows j .. j + 2^level - 1 hold a pose in play within the run's reach.
+    bool reaches(int j, int level) const {
+        const auto& hull = levels_[std::size_t(level)][hull_of_row_0_ + j];
+        if (hull[0] > hull[1]) return false;
+        const int i0 = std::max(rows_[2], hull[0] - i_last_), i1 = std::min(rows_[3], hull[1] - i_first_);
+        return i0 <= i1 && count_in_play(pruner_, stride_, i0, i1, j, j + (1 << level) - 1) != 0;
+    }
+    int first_in(int j, int level) const {
+        if (!reaches(j, level)) return -1;
+        if (level == 0) return j;
+        const int found = first_in(j, level - 1);
+        return found >= 0 ? found : first_in(j + (1 << (level - 1)), level - 1);
+    }
+    int last_in(int j, int level) const {
+        if (!reaches(j, level)) return -1;
+        if (level == 0) return j;
+        const int found = last_in(j + (1 << (level - 1)), level - 1);
+        return found >= 0 ? found : last_in(j, level - 1);
+    }
+
+    const PulledPruner& pruner_;
+    std::size_t stride_;
+    const Band& rows_;
+    std::int32_t i_first_, i_last_;
+    std::ptrdiff_t hull_of_row_0_ = 0;
+    std::array<const std::array<std::int32_t, 2>*, FixedRuns::kHullLevels> levels_{};
+};
+
 }  // namespace
 
-// Cuts one angle's pulled runs for a map test (sorted by key), each slot's cut to the columns that
-// can reach that slot of the fixed volume from the box of the poses in play. Returns the longest run.
-int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, std::vector<SliceRun>& out) const {
-    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return 0;
+// Cuts one angle's pulled runs for a map test (sorted by map pass, then key; `pass_first`, where
+// given, gets each pass's first), each slot's cut to the columns that can reach that slot of the
+// fixed volume from the box of the poses in play. Returns the longest run.
+int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
+                              std::vector<std::size_t>* pass_first) const {
+    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) {
+        if (pass_first) pass_first->assign(std::size_t(passes) + 1, out.size());
+        return 0;
+    }
     const SlotClips clips = pulled_clips(*test.fixed, test.slots, range_.i_first + rows[2], range_.i_first + rows[3],
                                          range_.j_first + rows[0], range_.j_first + rows[1]);
-    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out);
+    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out, passes, pass_first);
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -66,20 +160,15 @@ int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch
 // read of it (fidelity, for one, reaches few: most pairs of body runs meet far from any pose in
 // play). A box test (2D prefix sums of the poses in play) first drops most runs cheaply.
 // Returns the pairs of runs the kernel will visit.
-std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, std::span<const SliceRun> runs,
-                                          const std::uint8_t* open, std::vector<PulledRun>& out) const {
+std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
+                                          std::span<const SliceRun> runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
     std::uint64_t pairs = 0;
     if (rows[0] > rows[1] || runs.empty()) return pairs;
     const std::size_t stride = std::size_t(width_) + 1;
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
-    // Poses in play in columns i0..i1 and rows j0..j1.
-    auto in_play = [&](int i0, int i1, int j0, int j1) {
-        const auto at = [&](int j, int i) { return pruner.prefix[std::size_t(j) * stride + std::size_t(i)]; };
-        return at(j1 + 1, i1 + 1) - at(j0, i1 + 1) - at(j1 + 1, i0) + at(j0, i0);
-    };
-    const std::int32_t keys_per_angle = test.runs.zbits * std::int32_t(test.slots.size());
+    const std::int32_t key_base = std::int32_t(angle_in_batch) * test.runs.zbits * std::int32_t(test.slots.size());
     for (const SliceRun& run : runs) {
-        const std::int32_t fixed_key = run.key % keys_per_angle;
+        const std::int32_t fixed_key = run.key - key_base;
         const auto& box = test.runs.key_boxes[std::size_t(fixed_key)];
         if (box[0] > box[1]) continue;
         // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
@@ -87,20 +176,13 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
         if (j0 > j1) continue;
         if (open) {
             const int i0 = std::max(rows[2], box[0] - run.x_last - range_.i_first), i1 = std::min(rows[3], box[1] - run.x_first - range_.i_first);
-            if (i0 > i1 || in_play(i0, i1, j0, j1) == 0) continue;
-            // The first and last rows where a pose in play lies within reach of the fixed row
-            // at the other end: its runs' hull, moved by this run.
-            const auto* hulls = test.runs.row_hulls.data() + test.runs.row_hull_first[std::size_t(fixed_key)];
-            const auto reaches = [&](int j) {
-                const auto& hull = hulls[run.y + range_.j_first + j - box[2]];
-                if (hull[0] > hull[1]) return false;
-                const int h0 = std::max(rows[2], hull[0] - run.x_last - range_.i_first), h1 = std::min(rows[3], hull[1] - run.x_first - range_.i_first);
-                return h0 <= h1 && in_play(h0, h1, j, j) != 0;
-            };
-            // Only the band's ends matter: scan in from both sides.
-            while (j0 <= j1 && !reaches(j0)) ++j0;
-            if (j0 > j1) continue;
-            while (!reaches(j1)) --j1;
+            if (i0 > i1 || count_in_play(pruner, stride, i0, i1, j0, j1) == 0) continue;
+            // Only the band's ends matter: the first and the last row the run reaches.
+            const RunReach reach(pruner, stride, rows, test.runs, std::size_t(fixed_key), std::ptrdiff_t(run.y) + range_.j_first - box[2],
+                                 run.x_first + range_.i_first, run.x_last + range_.i_first);
+            j0 = reach.first(j0, j1);
+            if (j0 < 0) continue;
+            j1 = reach.last(j0, j1);
         }
         const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
         const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
@@ -136,9 +218,8 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
     for_each_angle([&](int a) {
         AngleScratch& scratch = angle_scratch_[std::size_t(a)];
-        scratch.cut.clear();
-        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], scratch.cut);
-        split_by_pass(scratch, passes, test.runs.zbits);
+        scratch.by_pass.clear();
+        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], passes, scratch.by_pass, &scratch.pass_first);
     });
     const int longest = *std::max_element(longest_of.begin(), longest_of.end());
     const int maps = test.maps_per_angle();
@@ -156,7 +237,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             scratch.pruned.clear();
             const std::span<const SliceRun> runs(scratch.by_pass.data() + scratch.pass_first[std::size_t(pass)],
                                                  scratch.pass_first[std::size_t(pass) + 1] - scratch.pass_first[std::size_t(pass)]);
-            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], runs,
+            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], a, runs,
                                                          open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, scratch.pruned);
         });
         std::size_t total_runs = 0;
@@ -181,21 +262,6 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
     }
     return read_map(test, batch_angles);
-}
-
-// Orders an angle's cut runs by map pass (pass_of), keeping key order within each pass.
-void SweepRun::split_by_pass(AngleScratch& scratch, int passes, int zbits) {
-    scratch.pass_first.assign(std::size_t(passes) + 1, 0);
-    if (passes == 1) {
-        std::swap(scratch.by_pass, scratch.cut);
-        scratch.pass_first[1] = scratch.by_pass.size();
-        return;
-    }
-    for (const SliceRun& run : scratch.cut) ++scratch.pass_first[std::size_t(pass_of(run.key % zbits, run.y, passes)) + 1];
-    for (int p = 0; p < passes; ++p) scratch.pass_first[std::size_t(p) + 1] += scratch.pass_first[std::size_t(p)];
-    scratch.by_pass.resize(scratch.cut.size());
-    std::vector<std::size_t> next(scratch.pass_first.begin(), scratch.pass_first.end() - 1);
-    for (const SliceRun& run : scratch.cut) scratch.by_pass[next[std::size_t(pass_of(run.key % zbits, run.y, passes))]++] = run;
 }
 
 // ORs one pass's pulled runs (staged in `pulled_`) into the maps (`map_bytes` of them) and waits for them.
@@ -228,12 +294,12 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
 }
 
 // After a pass: poses with an overlap found are decided (one map per angle here); the box in play
-// shrinks to the poses still open.
+// shrinks to the poses still open. Angles on all cores.
 void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
     const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
-    for (int a = 0; a < batch_angles; ++a) {
-        Band& band = open_rows[std::size_t(a)];
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        Band& band = open_rows[a];
         Band still{height_, -1, width_, -1};
         for (int j = band[0]; j <= band[1]; ++j) {
             std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
@@ -244,7 +310,7 @@ void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& 
                 const std::uint32_t missed = ~row[w];
                 std::uint8_t* word_open = row_open + w * 32;
                 if (w * 32 + 32 <= width_) {
-                    for (int b = 0; b < 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
+                    keep_flags(missed, word_open);
                 } else {
                     for (int b = 0; b < width_ - w * 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
                 }
@@ -258,7 +324,7 @@ void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& 
             widen(still, j, std::int32_t(last - row_open));
         }
         band = still;
-    }
+    });
 }
 
 namespace {
@@ -283,10 +349,10 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
     const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     std::vector<std::uint8_t> meets(per_angle_ * std::uint64_t(batch_angles));
     const std::uint8_t when_set = test.want == Want::NoOverlap ? 0 : 1;
-    for (int a = 0; a < batch_angles; ++a)
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
         for (int j = 0; j < height_; ++j) {
-            std::uint8_t* out = meets.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
-            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            std::uint8_t* out = meets.data() + a * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (a * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
             for (int w = 0; w < row_words_; ++w) {
                 std::uint32_t bits = row[w];
                 if (test.want == Want::Frames && test.needed < maps) {
@@ -294,9 +360,14 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
                 } else {
                     for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height_) * std::size_t(row_words_) + std::size_t(w)];
                 }
-                for (int i = w * 32; i < std::min(width_, w * 32 + 32); ++i) out[i] = ((bits >> (i & 31)) & 1u) ? when_set : std::uint8_t(1 - when_set);
+                if (w * 32 + 32 <= width_) {
+                    write_flags(bits, when_set == 0, out + w * 32);
+                } else {
+                    for (int i = w * 32; i < width_; ++i) out[i] = ((bits >> (i & 31)) & 1u) ? when_set : std::uint8_t(1 - when_set);
+                }
             }
         }
+    });
     return meets;
 }
 
@@ -315,9 +386,9 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, 
     for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
         std::vector<SliceRun> runs;
         std::vector<PulledRun> pruned;
-        cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], runs);
+        cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], 1, runs);
         cut += runs.size();
-        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
+        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], 0, runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
     }
     // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the
     // option prices one of kPoseTestIterations loop steps.

@@ -149,8 +149,7 @@ enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
 
 // One angle's pulled runs in a map test, kept between batches so their buffers are reused.
 struct AngleScratch {
-    std::vector<SliceRun> cut;                // as cut, in key order
-    std::vector<SliceRun> by_pass;            // ordered by map pass, key order within a pass
+    std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
     std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
     std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
 };
@@ -214,10 +213,10 @@ private:
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
-    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, std::vector<SliceRun>& out) const;
-    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, std::span<const SliceRun> runs,
+    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
+                        std::vector<std::size_t>* pass_first = nullptr) const;
+    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch, std::span<const SliceRun> runs,
                                     const std::uint8_t* open, std::vector<PulledRun>& out) const;
-    static void split_by_pass(AngleScratch& scratch, int passes, int zbits);
     // Decides `test` for every pose of the batch (implicit order) with an overlap map.
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
                                       const std::vector<std::uint8_t>* candidates);
