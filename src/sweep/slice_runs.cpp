@@ -1,6 +1,7 @@
 #include "src/sweep/slice_runs.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <limits>
 #include <memory>
@@ -33,6 +34,7 @@ public:
     }
     // Ends column x: compares it with the column before.
     void end_column(std::int32_t x) {
+        if (current_words_.empty() && previous_words_.empty()) return;  // most columns: nothing starts or ends
         for (const std::int32_t w : current_words_)
             for (std::uint32_t starts = current_[std::size_t(w)] & ~previous_[std::size_t(w)]; starts != 0u; starts &= starts - 1u)
                 first_[std::size_t(w) * 32 + std::size_t(std::countr_zero(starts))] = x;
@@ -67,6 +69,50 @@ void check_lattice(std::int64_t x0, std::int64_t y0, int nx, int ny) {
     constexpr std::int64_t limit = std::numeric_limits<std::int32_t>::max() / 4;
     if (std::abs(x0) > limit || std::abs(y0) > limit || nx > limit || ny > limit)
         fail("sweep", "internal: lattice indices beyond what slice runs store");
+}
+
+// floor(a / b) and ceil(a / b), b != 0, for any signs.
+std::int64_t floor_div(std::int64_t a, std::int64_t b) {
+    const std::int64_t q = a / b;
+    return a % b != 0 && (a < 0) != (b < 0) ? q - 1 : q;
+}
+std::int64_t ceil_div(std::int64_t a, std::int64_t b) {
+    const std::int64_t q = a / b;
+    return a % b != 0 && (a < 0) == (b < 0) ? q + 1 : q;
+}
+
+// The steps k (value + k * delta, as a row of the pull mapping steps) at which the value lies in
+// [low, high]: [first, last], empty when first > last.
+std::array<std::int64_t, 2> steps_within(std::int64_t value, std::int64_t delta, std::int64_t low, std::int64_t high) {
+    if (delta == 0) return low <= value && value <= high ? std::array<std::int64_t, 2>{0, std::numeric_limits<std::int64_t>::max()}
+                                                         : std::array<std::int64_t, 2>{1, 0};
+    if (delta > 0) return {ceil_div(low - value, delta), floor_div(high - value, delta)};
+    return {ceil_div(high - value, delta), floor_div(low - value, delta)};
+}
+
+// Where the pull mapping of one A row lands in a box of B's columns: the first and last A column
+// (gx_first, gx_last within the row's [gx_first, gx_last]) and the step at the first. Columns
+// outside are empty, so the row is walked only over that stretch (most of a rotated volume's
+// bounding box lies outside it). Exact: the mapping is linear along the row, in integers.
+struct RowStretch {
+    std::int32_t first = 1, last = 0;
+    posemap::Step at;
+};
+RowStretch stretch_in_box(std::int32_t gy, std::int32_t gx_first, std::int32_t gx_last, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
+                          const std::array<std::int64_t, 2>& root_b, const std::array<std::int64_t, 4>& source_box) {
+    constexpr std::int64_t unit = std::int64_t(1) << (posemap::kPositionBits + posemap::kTrigBits);  // one column
+    RowStretch stretch;
+    stretch.at = posemap::source_step(gx_first, gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
+    const auto in_x = steps_within(stretch.at.px, stretch.at.dpx, source_box[0] * unit, (source_box[2] + 1) * unit - 1);
+    const auto in_y = steps_within(stretch.at.py, stretch.at.dpy, source_box[1] * unit, (source_box[3] + 1) * unit - 1);
+    const std::int64_t first = std::max({std::int64_t(0), in_x[0], in_y[0]});
+    const std::int64_t last = std::min({std::int64_t(gx_last) - gx_first, in_x[1], in_y[1]});
+    if (first > last) return stretch;
+    stretch.first = gx_first + std::int32_t(first);
+    stretch.last = gx_first + std::int32_t(last);
+    stretch.at.px += first * stretch.at.dpx;
+    stretch.at.py += first * stretch.at.dpy;
+    return stretch;
 }
 
 // map_pass_of for a run with key `key` (z = key % zbits): zbits is a multiple of 32, so z's last
@@ -209,6 +255,15 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
         box = {std::min(box[0], b[0]), std::min(box[1], b[1]), std::max(box[2], b[2]), std::max(box[3], b[3])};
     }
     for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];
+    // The slots' occupied columns in B's global lattice: every non-zero word lies in their box.
+    std::array<std::int64_t, 4> source_box{std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::max(),
+                                           std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::min()};
+    for (const int slot : sparse.slots) {
+        const auto& b = moving.slot_boxes[std::size_t(slot)];
+        if (b[0] > b[2] || b[1] > b[3]) continue;
+        source_box = {std::min(source_box[0], moving.x0 + b[0]), std::min(source_box[1], moving.y0 + b[1]),
+                      std::max(source_box[2], moving.x0 + b[2]), std::max(source_box[3], moving.y0 + b[3])};
+    }
     int longest = 0;
     // Runs in visiting order (row by row), then counted into key order: within a key they stay in
     // (y, x) order, as a stable sort by key would leave them. The scratch stays with the thread:
@@ -219,10 +274,12 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     visited.clear();
     if (!row_runs || row_runs->words() != key_count / 32) row_runs = std::make_unique<RowRuns>(key_count / 32);
     RowRuns& row = *row_runs;
-    for (std::int32_t gy = box[1]; gy <= box[3]; ++gy) {
+    for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
+        RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
+        if (stretch.first > stretch.last) continue;
         row.start_row(gy, key_base, visited, longest);
-        posemap::Step at = posemap::source_step(box[0], gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
-        for (std::int32_t gx = box[0]; gx <= box[2]; ++gx, at.advance()) {
+        posemap::Step& at = stretch.at;
+        for (std::int32_t gx = stretch.first; gx <= stretch.last; ++gx, at.advance()) {
             const posemap::Column source = at.column();
             const std::int64_t bx = source.x - moving.x0, by = source.y - moving.y0;
             if (bx >= 0 && by >= 0 && bx < moving.nx && by < moving.ny) {
@@ -238,7 +295,7 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
             }
             row.end_column(gx);
         }
-        row.end_row(box[2]);
+        row.end_row(stretch.last);
     }
     // Buckets (pass, key) in that order.
     const auto bucket = [&](const SliceRun& run) {

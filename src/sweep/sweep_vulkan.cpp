@@ -3,8 +3,10 @@
 // the poses that are left, and the outcome of every pose.
 #include "src/sweep/sweep_vulkan.hpp"
 
+#include <algorithm>
 #include <chrono>
 
+#include "src/core/parallel.hpp"
 #include "src/sweep/sweep_vulkan_run.hpp"
 #include "shaders/sweep_map.spv.h"
 #include "shaders/sweep_overlap.spv.h"
@@ -95,29 +97,44 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
     for (const auto& p : survivors) result_.outcomes[outcome_index(p)] = PoseOutcome::Solution;
 }
 
+// The box of the set flags of one angle's poses (row by row, `width_` to a row; empty: first > last).
+Band SweepRun::box_of_flags(const std::uint8_t* flags) const {
+    Band box{height_, -1, width_, -1};
+    for (int j = 0; j < height_; ++j) {
+        const std::uint8_t *begin = flags + std::size_t(j) * std::size_t(width_), *end = begin + width_;
+        const std::uint8_t* first = std::find_if(begin, end, [](std::uint8_t f) { return f != 0; });
+        if (first == end) continue;
+        const std::uint8_t* last = end - 1;
+        while (*last == 0) --last;
+        widen(box, j, std::int32_t(first - begin));
+        widen(box, j, std::int32_t(last - begin));
+    }
+    return box;
+}
+
 // Contact by its map on every pose of the batch, then the required dictionary maps on the poses
 // in contact. Returns the poses that pass both; the rest get their outcome.
 std::vector<Pose> SweepRun::contact_and_dictionary_by_maps(int angle_first, int batch_angles) {
-    const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
     const Rows all_rows(std::size_t(batch_angles), {0, height_ - 1, 0, width_ - 1});
     const auto contact = run_map(required_maps_[0].front(), 0, angle_first, batch_angles, all_rows, nullptr);
     lap(0);  // the dictionary maps count as the dictionary's time
-    Rows contact_rows(std::size_t(batch_angles), {height_, -1, width_, -1});
-    for (std::uint64_t p = 0; p < batch_poses; ++p)
-        if (contact[p]) {
-            const std::uint64_t rest = p % per_angle_;
-            widen(contact_rows[std::size_t(p / per_angle_)], std::int32_t(rest / std::uint64_t(width_)), std::int32_t(rest % std::uint64_t(width_)));
-        }
+    Rows contact_rows(static_cast<std::size_t>(batch_angles));
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) { contact_rows[a] = box_of_flags(contact.data() + a * per_angle_); });
     Meets dictionary;
     for (MapTest& test : required_maps_[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
+    // Row by row, so a pose's offsets come without dividing its index.
     std::vector<Pose> survivors;
-    for (std::uint64_t p = 0; p < batch_poses; ++p) {
-        if (!contact[p]) continue;
-        ++tools_.stats.poses_per_stage[1];
-        const Pose pose = implicit_pose(angle_first, p);
-        if (passes_all(dictionary, p)) survivors.push_back(pose);
-        else result_.outcomes[outcome_index(pose)] = PoseOutcome::FailsDictionary;
-    }
+    PoseOutcome* outcomes = result_.outcomes.data() + std::size_t(angle_first) * std::size_t(per_angle_);
+    for (int a = 0; a < batch_angles; ++a)
+        for (int j = contact_rows[std::size_t(a)][0]; j <= contact_rows[std::size_t(a)][1]; ++j) {
+            const std::size_t row = std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
+            for (int i = contact_rows[std::size_t(a)][2]; i <= contact_rows[std::size_t(a)][3]; ++i) {
+                if (!contact[row + std::size_t(i)]) continue;
+                ++tools_.stats.poses_per_stage[1];
+                if (passes_all(dictionary, row + std::size_t(i))) survivors.push_back({angle_first + a, range_.i_first + i, range_.j_first + j, 0});
+                else outcomes[row + std::size_t(i)] = PoseOutcome::FailsDictionary;
+            }
+        }
     return survivors;
 }
 

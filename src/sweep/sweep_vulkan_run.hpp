@@ -200,6 +200,7 @@ private:
     // The stage's tests with each fixed volume OR-pooled over a block of offsets (made on first use).
     const std::vector<OverlapTest>& block_stage(int stage);
     Pose implicit_pose(int angle_first, std::uint64_t p) const;
+    Band box_of_flags(const std::uint8_t* flags) const;
     std::size_t outcome_index(const Pose& p) const;
     // Runs every test of `stage` on `pose_list` (or, when null, on `implicit_count` poses of the
     // range from angle `angle_first`): per test and pose, whether the pose meets the criterion.
