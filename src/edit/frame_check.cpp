@@ -120,12 +120,21 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
         return x >= 0 && y >= 0 && z >= 0 && x < g.dims[0] && y < g.dims[1] && z < g.dims[2] ? both.word(0, g.index(x, y, z)) : 0u;
     };
     const std::uint32_t low_bits = n >= 32 ? ~0u : (1u << n) - 1;
+    const std::uint32_t* plane = both.plane(0);
+    const std::ptrdiff_t row = g.dims[0], layer = std::ptrdiff_t(g.dims[0]) * g.dims[1];
+    // The AND of a voxel's six neighbours: inside the grid by offsets, on its faces with bounds.
+    auto neighbours = [&](int x, int y, int z, std::size_t v) {
+        if (x > 0 && y > 0 && z > 0 && x + 1 < g.dims[0] && y + 1 < g.dims[1] && z + 1 < g.dims[2])
+            return plane[v - 1] & plane[v + 1] & plane[v - row] & plane[v + row] & plane[v - layer] & plane[v + layer];
+        return word(x - 1, y, z) & word(x + 1, y, z) & word(x, y - 1, z) & word(x, y + 1, z) & word(x, y, z - 1) & word(x, y, z + 1);
+    };
     for (int z = z0; z < z1; ++z)
         for (int y = 0; y < g.dims[1]; ++y)
             for (int x = 0; x < g.dims[0]; ++x) {
-                const std::uint32_t w = both.word(0, g.index(x, y, z));
+                const std::size_t v = g.index(x, y, z);
+                const std::uint32_t w = plane[v];
                 if (!w) continue;
-                std::uint32_t edge = w & ~(word(x - 1, y, z) & word(x + 1, y, z) & word(x, y - 1, z) & word(x, y + 1, z) & word(x, y, z - 1) & word(x, y, z + 1));
+                std::uint32_t edge = w & ~neighbours(x, y, z, v);
                 for (; edge; edge &= edge - 1) scan.boundary[std::size_t(std::countr_zero(edge))].push_back({double(x), double(y), double(z)});
                 for (std::uint32_t overlap = w & (w >> n) & low_bits; overlap; overlap &= overlap - 1) {
                     const std::size_t f = std::size_t(std::countr_zero(overlap));
