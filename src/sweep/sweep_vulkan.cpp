@@ -179,9 +179,16 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
         widen(rows[std::size_t(q[0] - angle_first)], q[2] - range_.j_first, q[1] - range_.i_first);
         candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
     }
-    if (maps_pay_off(stage, survivors.size(), angle_first, batch_angles, rows, candidates)) {
+    // Every angle's runs are cut (on all cores) before the cost model reads one angle's: the maps
+    // then use them as they are. (Cutting the sample alone, on one core, cost as much as the maps
+    // at 5 mm.)
+    const bool may_map = !optional_maps_[std::size_t(stage)].empty() && !survivors.empty();
+    if (may_map)
+        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows);
+    if (may_map && maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates)) {
         Meets meets;
-        for (MapTest& test : optional_maps_[std::size_t(stage)]) meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates));
+        for (MapTest& test : optional_maps_[std::size_t(stage)])
+            meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates, true));
         passes.resize(survivors.size());
         // The maps hold the batch's poses in outcome order, starting at angle_first.
         for (std::size_t p = 0; p < survivors.size(); ++p)

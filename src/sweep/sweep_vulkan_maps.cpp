@@ -195,18 +195,32 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
     return pairs;
 }
 
+// Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
+int SweepRun::map_passes(const MapTest& test) const {
+    return test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
+}
+
+void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows) const {
+    if (test.angles.size() < std::size_t(batch_angles)) test.angles.resize(std::size_t(batch_angles));
+    const int passes = map_passes(test);
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        AngleScratch& scratch = test.angles[a];
+        scratch.by_pass.clear();
+        scratch.longest = cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, scratch.by_pass, &scratch.pass_first);
+    });
+}
+
 // Computes the map on the box `rows[a]` of each angle a of the batch and, where `candidates` is
 // given (per pose of the batch), exactly only on those poses. The map goes in passes over the z
 // slices and rows, coarse to fine (pass_of): a pose that a pass decides (an overlap found) leaves
 // play, so later passes skip the runs that reach only decided poses. For contact the coarse cells
 // find most overlaps, and the rest of the runs reach little that is new.
 std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
-                                            const std::vector<std::uint8_t>* candidates) {
+                                            const std::vector<std::uint8_t>* candidates, bool runs_cut) {
     // Pulled runs' x is packed in 16 bits relative to pulled_x0.
     const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width_;
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
-    // Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
-    const int passes = test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
+    const int passes = map_passes(test);
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
     std::vector<std::uint8_t>& open = open_scratch_;
     if (candidates) open = *candidates;
@@ -214,14 +228,9 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     Rows open_rows = rows;  // per angle: the box of the poses in play
     // Host work per angle, on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
-    if (angle_scratch_.size() < std::size_t(batch_angles)) angle_scratch_.resize(std::size_t(batch_angles));
-    std::vector<int> longest_of(static_cast<std::size_t>(batch_angles), 0);
-    for_each_angle([&](int a) {
-        AngleScratch& scratch = angle_scratch_[std::size_t(a)];
-        scratch.by_pass.clear();
-        longest_of[std::size_t(a)] = cut_pulled_runs(test, angle_first + a, a, rows[std::size_t(a)], passes, scratch.by_pass, &scratch.pass_first);
-    });
-    const int longest = *std::max_element(longest_of.begin(), longest_of.end());
+    if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows);
+    int longest = 0;
+    for (int a = 0; a < batch_angles; ++a) longest = std::max(longest, test.angles[std::size_t(a)].longest);
     const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     map_words_.ensure(tools_.context, map_bytes);
@@ -233,7 +242,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
         for_each_angle([&](int a) {
             thread_local PulledPruner pruner;
-            AngleScratch& scratch = angle_scratch_[std::size_t(a)];
+            AngleScratch& scratch = test.angles[std::size_t(a)];
             scratch.pruned.clear();
             const std::span<const SliceRun> runs(scratch.by_pass.data() + scratch.pass_first[std::size_t(pass)],
                                                  scratch.pass_first[std::size_t(pass) + 1] - scratch.pass_first[std::size_t(pass)]);
@@ -242,7 +251,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         });
         std::size_t total_runs = 0;
         for (int a = 0; a < batch_angles; ++a) {
-            total_runs += angle_scratch_[std::size_t(a)].pruned.size();
+            total_runs += test.angles[std::size_t(a)].pruned.size();
             tools_.stats.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
         }
         tools_.stats.pulled_runs_per_stage[std::size_t(stage)] += total_runs;
@@ -253,7 +262,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             pulled_.ensure(tools_.context, total_runs * sizeof(PulledRun));
             PulledRun* staged = pulled_.host<PulledRun>().data();
             for (int a = 0; a < batch_angles; ++a) {
-                const auto& pruned = angle_scratch_[std::size_t(a)].pruned;
+                const auto& pruned = test.angles[std::size_t(a)].pruned;
                 staged = std::copy(pruned.begin(), pruned.end(), staged);
             }
         }
@@ -374,8 +383,7 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
 // The cost model: a stage's optional maps pay off when its poses, tested one by one, would cost
 // more than the run pairs of its maps and the host's cutting of their runs (estimated from one
 // angle of the batch).
-bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
-                            const std::vector<std::uint8_t>& candidates) const {
+bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>& candidates) const {
     if (optional_maps_[std::size_t(stage)].empty() || pose_count == 0) return false;
     // The first angle with poses in play stands for every angle with some.
     int sample = 0, angles_in_play = 0;
@@ -383,12 +391,11 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int angle_first, 
         if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
     std::uint64_t pairs = 0, cut = 0;
     PulledPruner pruner;
+    std::vector<PulledRun> pruned;
     for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
-        std::vector<SliceRun> runs;
-        std::vector<PulledRun> pruned;
-        cut_pulled_runs(test, angle_first + sample, 0, rows[std::size_t(sample)], 1, runs);
+        const std::vector<SliceRun>& runs = test.angles[std::size_t(sample)].by_pass;
         cut += runs.size();
-        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], 0, runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
+        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
     }
     // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the
     // option prices one of kPoseTestIterations loop steps.

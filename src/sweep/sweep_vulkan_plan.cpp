@@ -160,7 +160,7 @@ void SweepRun::plan_maps() {
     std::vector<int> every_frame(static_cast<std::size_t>(frames_));
     for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
     auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want, int needed = 0) {
-        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr, needed};
+        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr, {}, needed};
     };
     auto map_of = [&](const OverlapTest& test) {
         std::vector<int> slots{0};

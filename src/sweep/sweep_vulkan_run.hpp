@@ -96,6 +96,14 @@ struct OverlapTest {
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
 // of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
+// One angle's pulled runs in a map test, kept between batches so their buffers are reused.
+struct AngleScratch {
+    std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
+    std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
+    int longest = 0;                          // voxels in the longest run cut
+    std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
+};
+
 struct MapTest {
     const ColumnVolume* fixed;
     const ColumnVolume* moving;
@@ -105,6 +113,7 @@ struct MapTest {
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
+    std::vector<AngleScratch> angles;  // per angle of the batch: its pulled runs (SweepRun::cut_angles)
     int needed = 0;
     int maps_per_angle() const { return want == Want::Frames ? int(slots.size()) : 1; }
 };
@@ -147,12 +156,6 @@ double pose_test_iterations(const OverlapTest& test);
 // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
 enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
 
-// One angle's pulled runs in a map test, kept between batches so their buffers are reused.
-struct AngleScratch {
-    std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
-    std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
-    std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
-};
 
 // Scratch of the pulled-run pruning, reused by one thread.
 struct PulledPruner {
@@ -218,16 +221,19 @@ private:
                         std::vector<std::size_t>* pass_first = nullptr) const;
     std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch, std::span<const SliceRun> runs,
                                     const std::uint8_t* open, std::vector<PulledRun>& out) const;
-    // Decides `test` for every pose of the batch (implicit order) with an overlap map.
+    // Cuts the pulled runs of every angle of the batch into test.angles, on all cores.
+    void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows) const;
+    int map_passes(const MapTest& test) const;
+    // Decides `test` for every pose of the batch (implicit order) with an overlap map (`runs_cut`:
+    // test.angles holds the batch's runs already).
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
-                                      const std::vector<std::uint8_t>* candidates);
+                                      const std::vector<std::uint8_t>* candidates, bool runs_cut = false);
     void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest, std::uint64_t map_bytes);
     // Submits the sequence and waits for it, counting the wait as the device's time.
     void submit_and_wait();
     void close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const;
     std::vector<std::uint8_t> read_map(const MapTest& test, int batch_angles) const;
-    bool maps_pay_off(int stage, std::size_t pose_count, int angle_first, int batch_angles, const Rows& rows,
-                      const std::vector<std::uint8_t>& candidates) const;
+    bool maps_pay_off(int stage, std::size_t pose_count, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>& candidates) const;
 
     // ---- batches (sweep_vulkan.cpp) ----
     void sweep_batch(int angle_first, int batch_angles);
@@ -265,7 +271,6 @@ private:
     Sequence sequence_;
     MirroredBuffer poses_, pulled_, flags_, map_words_;
     // Scratch of the overlap maps, reused batch after batch (fresh buffers cost page faults).
-    std::vector<AngleScratch> angle_scratch_;
     std::vector<std::uint8_t> open_scratch_;
     Buffer no_poses_;
 };
