@@ -100,15 +100,7 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
 // The box of the set flags of one angle's poses (row by row, `width_` to a row; empty: first > last).
 Band SweepRun::box_of_flags(const std::uint8_t* flags) const {
     Band box{height_, -1, width_, -1};
-    for (int j = 0; j < height_; ++j) {
-        const std::uint8_t *begin = flags + std::size_t(j) * std::size_t(width_), *end = begin + width_;
-        const std::uint8_t* first = std::find_if(begin, end, [](std::uint8_t f) { return f != 0; });
-        if (first == end) continue;
-        const std::uint8_t* last = end - 1;
-        while (*last == 0) --last;
-        widen(box, j, std::int32_t(first - begin));
-        widen(box, j, std::int32_t(last - begin));
-    }
+    for (int j = 0; j < height_; ++j) widen_by_flags(box, flags + std::size_t(j) * std::size_t(width_), j, 0, width_ - 1);
     return box;
 }
 

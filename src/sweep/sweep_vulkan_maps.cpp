@@ -138,18 +138,18 @@ private:
 
 }  // namespace
 
-// Cuts one angle's pulled runs for a map test (sorted by map pass, then key; `pass_first`, where
-// given, gets each pass's first), each slot's cut to the columns that can reach that slot of the
-// fixed volume from the box of the poses in play. Returns the longest run.
+// Cuts one angle's pulled runs for a map test (sorted by map pass, then key; `pass_first` gets
+// each pass's first), each slot's cut to the columns that can reach that slot of the fixed volume
+// from the box of the poses in play. Returns the longest run.
 int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
-                              std::vector<std::size_t>* pass_first) const {
+                              std::vector<std::size_t>& pass_first) const {
     if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) {
-        if (pass_first) pass_first->assign(std::size_t(passes) + 1, out.size());
+        pass_first.assign(std::size_t(passes) + 1, out.size());
         return 0;
     }
     const SlotClips clips = pulled_clips(*test.fixed, test.slots, range_.i_first + rows[2], range_.i_first + rows[3],
                                          range_.j_first + rows[0], range_.j_first + rows[1]);
-    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out, passes, pass_first);
+    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out, passes, &pass_first);
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -206,7 +206,7 @@ void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, cons
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
         AngleScratch& scratch = test.angles[a];
         scratch.by_pass.clear();
-        scratch.longest = cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, scratch.by_pass, &scratch.pass_first);
+        scratch.longest = cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, scratch.by_pass, scratch.pass_first);
     });
 }
 
@@ -324,13 +324,7 @@ void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& 
                     for (int b = 0; b < width_ - w * 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
                 }
             }
-            const std::uint8_t *begin = row_open + band[2], *end = row_open + band[3] + 1;
-            const std::uint8_t* first = std::find_if(begin, end, [](std::uint8_t o) { return o != 0; });
-            if (first == end) continue;
-            const std::uint8_t* last = end - 1;
-            while (*last == 0) --last;
-            widen(still, j, std::int32_t(first - row_open));
-            widen(still, j, std::int32_t(last - row_open));
+            widen_by_flags(still, row_open, j, band[2], band[3]);
         }
         band = still;
     });

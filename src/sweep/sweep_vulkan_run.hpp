@@ -135,6 +135,18 @@ using Rows = std::vector<Band>;
 inline void widen(Band& band, std::int32_t j, std::int32_t i) {
     band = {std::min(band[0], j), std::max(band[1], j), std::min(band[2], i), std::max(band[3], i)};
 }
+
+// Widens `band` by the first and last set flag of row j (`row`: its flags, one per column) among
+// columns i0..i1; a row with none leaves it as it is.
+inline void widen_by_flags(Band& band, const std::uint8_t* row, std::int32_t j, std::int32_t i0, std::int32_t i1) {
+    const std::uint8_t *begin = row + i0, *end = row + i1 + 1;
+    const std::uint8_t* first = std::find_if(begin, end, [](std::uint8_t f) { return f != 0; });
+    if (first == end) return;
+    const std::uint8_t* last = end - 1;
+    while (*last == 0) --last;
+    widen(band, j, std::int32_t(first - row));
+    widen(band, j, std::int32_t(last - row));
+}
 using Meets = std::vector<std::vector<std::uint8_t>>;   // per test and pose: whether the pose meets the test's criterion
 
 // Whether pose p meets every test.
@@ -218,7 +230,7 @@ private:
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
     int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
-                        std::vector<std::size_t>* pass_first = nullptr) const;
+                        std::vector<std::size_t>& pass_first) const;
     std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch, std::span<const SliceRun> runs,
                                     const std::uint8_t* open, std::vector<PulledRun>& out) const;
     // Cuts the pulled runs of every angle of the batch into test.angles, on all cores.
