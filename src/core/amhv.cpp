@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <mutex>
+#include <optional>
 
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
@@ -134,37 +135,57 @@ bool any_occupied(const Amhv& volume) {
     return std::any_of(volume.mask().begin(), volume.mask().end(), [](std::uint32_t word) { return word != 0u; });
 }
 
+std::vector<std::vector<std::uint32_t>> occupied_by_slice(const Amhv& volume) {
+    const auto& grid = volume.grid();
+    std::vector<std::vector<std::uint32_t>> slices(std::size_t(std::max(grid.dims[2], 0)));
+    const std::size_t per_slice = std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]);
+    parallel_for(slices.size(), [&](std::size_t z) {
+        const std::size_t base = z * per_slice;
+        for (std::size_t v = 0; v < per_slice; ++v)
+            if (volume.any(base + v)) slices[z].push_back(std::uint32_t(v));
+    });
+    return slices;
+}
+
+std::optional<std::array<std::array<int, 3>, 2>> occupied_index_bounds(const Amhv& volume) {
+    const auto& grid = volume.grid();
+    const auto slices = occupied_by_slice(volume);
+    std::array<int, 3> low{grid.dims[0], grid.dims[1], grid.dims[2]}, high{-1, -1, -1};
+    for (std::size_t z = 0; z < slices.size(); ++z)
+        for (const std::uint32_t v : slices[z]) {
+            const int x = int(v % std::uint32_t(grid.dims[0])), y = int(v / std::uint32_t(grid.dims[0]));
+            low = {std::min(low[0], x), std::min(low[1], y), std::min(low[2], int(z))};
+            high = {std::max(high[0], x), std::max(high[1], y), std::max(high[2], int(z))};
+        }
+    if (high[0] < 0) return std::nullopt;
+    return std::array<std::array<int, 3>, 2>{low, high};
+}
+
 // A voxel centre grows with each of its indices (voxel > 0; rounding keeps the order), so the
 // bounds of the occupied cubes are those of the extreme indices' cubes.
 Box3 occupied_bounds(const Amhv& volume) {
     const auto& grid = volume.grid();
-    std::array<int, 3> low{grid.dims[0], grid.dims[1], grid.dims[2]}, high{-1, -1, -1};
-    for (int z = 0; z < grid.dims[2]; ++z)
-        for (int y = 0; y < grid.dims[1]; ++y)
-            for (int x = 0; x < grid.dims[0]; ++x) {
-                if (!volume.any(grid.index(x, y, z))) continue;
-                low = {std::min(low[0], x), std::min(low[1], y), std::min(low[2], z)};
-                high = {std::max(high[0], x), std::max(high[1], y), std::max(high[2], z)};
-            }
     Box3 bounds;
-    if (high[0] < 0) return bounds;
+    const auto extremes = occupied_index_bounds(volume);
+    if (!extremes) return bounds;
+    const auto& [low, high] = *extremes;
     bounds.extend(grid.centre(low[0], low[1], low[2]) - Vec3::Constant(grid.voxel / 2));
     bounds.extend(grid.centre(high[0], high[1], high[2]) + Vec3::Constant(grid.voxel / 2));
     return bounds;
 }
 
-// The centres summed in summarise's order, so the mean is the same to the bit.
+// The centres summed in summarise's order, so the mean is the same to the bit: the occupied
+// voxels are found on every core, the sum runs over them alone.
 Vec3 occupied_root(const Amhv& volume) {
     const auto& grid = volume.grid();
+    const auto slices = occupied_by_slice(volume);
     Vec3 sum = Vec3::Zero();
     std::size_t occupied = 0;
-    for (int z = 0; z < grid.dims[2]; ++z)
-        for (int y = 0; y < grid.dims[1]; ++y)
-            for (int x = 0; x < grid.dims[0]; ++x) {
-                if (!volume.any(grid.index(x, y, z))) continue;
-                ++occupied;
-                sum += grid.centre(x, y, z);
-            }
+    for (std::size_t z = 0; z < slices.size(); ++z)
+        for (const std::uint32_t v : slices[z]) {
+            ++occupied;
+            sum += grid.centre(int(v % std::uint32_t(grid.dims[0])), int(v / std::uint32_t(grid.dims[0])), int(z));
+        }
     return occupied ? Vec3(sum / double(occupied)) : Vec3(Vec3::Zero());
 }
 

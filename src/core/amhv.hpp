@@ -1,10 +1,12 @@
 #pragma once
 // The augmented Motion History Volume of one object over one segment (docs/method.md section 3):
 // per voxel, the full occupancy mask over the segment's frames.
+#include <array>
 #include <bit>
 #include <cstdint>
 #include <cstdlib>
 #include <new>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -125,5 +127,12 @@ AmhvSummary summarise(const Amhv& volume);
 bool any_occupied(const Amhv& volume);
 Box3 occupied_bounds(const Amhv& volume);
 Vec3 occupied_root(const Amhv& volume);
+
+// Per z slice, the indices (y * nx + x) of its occupied voxels in increasing order, found on every
+// core: a caller that must visit them in (z, y, x) order, such as a floating-point sum, then visits
+// the occupied ones alone.
+std::vector<std::vector<std::uint32_t>> occupied_by_slice(const Amhv& volume);
+// The lowest and the highest index of the occupied voxels along each axis (none: empty volume).
+std::optional<std::array<std::array<int, 3>, 2>> occupied_index_bounds(const Amhv& volume);
 
 }  // namespace amhv

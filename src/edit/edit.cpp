@@ -82,18 +82,18 @@ std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector
         const Amhv volume = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
         std::vector<Eigen::Vector2d> sum(count, Eigen::Vector2d::Zero());
         std::vector<std::size_t> occupied(count, 0);
-        for (int z = 0; z < grid.dims[2]; ++z)
-            for (int y = 0; y < grid.dims[1]; ++y)
-                for (int x = 0; x < grid.dims[0]; ++x) {
-                    std::uint32_t bits = volume.word(0, grid.index(x, y, z));
-                    if (!bits) continue;
-                    const Vec3 c = grid.centre(x, y, z);
-                    for (; bits; bits &= bits - 1) {
-                        const int f = std::countr_zero(bits);
-                        sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
-                        ++occupied[std::size_t(f)];
-                    }
+        // In (z, y, x) order, over the occupied voxels alone (found on every core).
+        const auto slices = occupied_by_slice(volume);
+        for (std::size_t z = 0; z < slices.size(); ++z)
+            for (const std::uint32_t v : slices[z]) {
+                std::uint32_t bits = volume.word(0, z * std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]) + v);
+                const Vec3 c = grid.centre(int(v % std::uint32_t(grid.dims[0])), int(v / std::uint32_t(grid.dims[0])), int(z));
+                for (; bits; bits &= bits - 1) {
+                    const int f = std::countr_zero(bits);
+                    sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
+                    ++occupied[std::size_t(f)];
                 }
+            }
         for (std::size_t f = 0; f < count; ++f) {
             if (occupied[f] == 0) fail(merged[f].source, "occupies no voxel of {} m: the root is undefined", voxel);
             roots[first + f] = sum[f] / double(occupied[f]);

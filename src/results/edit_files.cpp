@@ -14,6 +14,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
 
@@ -252,15 +253,26 @@ void draw_side_view(const fs::path& path, const TriangleMesh& mesh, const std::v
 
 std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
     fs::create_directories(folder);
+    // The frames are gathered on this thread (an ObjectSource caches as it reads); the pictures,
+    // mostly PNG compression, are drawn on every core.
+    struct KeyPicture {
+        fs::path path;
+        EditedFrame frame;
+        Eigen::Vector2d between;
+    };
     std::vector<int> shown;
+    std::vector<KeyPicture> pictures;
     for (const TimelineSegment& segment : edit.timeline.segments) {
         if (!segment.key || segment.length == 0) continue;
         const int k = segment.first + segment.length / 2;
         shown.push_back(k);
-        const EditedFrame frame = edited_frame(edit, k, a, b);
-        const Eigen::Vector2d between = edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root;
-        draw_side_view(folder / fmt::format("key_{}.png", segment.key), frame.both, {frame.faces_from.begin(), frame.faces_from.end()}, between);
+        pictures.push_back({folder / fmt::format("key_{}.png", segment.key), edited_frame(edit, k, a, b),
+                            edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root});
     }
+    parallel_for(pictures.size(), [&pictures](std::size_t p) {
+        const KeyPicture& picture = pictures[p];
+        draw_side_view(picture.path, picture.frame.both, {picture.frame.faces_from.begin(), picture.frame.faces_from.end()}, picture.between);
+    });
     return shown;
 }
 
@@ -354,25 +366,38 @@ void write_eye_views(const fs::path& folder, const Scene& scene, const EditResul
 void write_eye_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
                      const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources) {
     fs::create_directories(folder);
+    // Cameras and meshes are gathered on this thread (an ObjectSource caches as it reads); the
+    // pictures are drawn on every core.
+    struct EyePicture {
+        fs::path path;
+        EyeCamera camera;
+        TriangleMesh others;
+        std::vector<std::size_t> faces_from{0}, colours;
+        std::string caption;
+    };
+    std::vector<EyePicture> pictures;
     for (const KeyView& view : views) {
         std::vector<TriangleMesh> placed;
         for (std::size_t o = 0; o < frames.size(); ++o) placed.push_back(placed_mesh((*frames[o])[std::size_t(view.frame)], *sources[o]));
         const VisibilitySpec& visibility = scene.segments[std::size_t(view.key - 1)].visibility;
         for (const std::size_t viewer : {view.first, view.second}) {
-            TriangleMesh others;
-            std::vector<std::size_t> faces_from{0}, colours;
+            EyePicture& picture = pictures.emplace_back();
             for (std::size_t o = 0; o < frames.size(); ++o) {
                 if (o == viewer) continue;
-                others.append(placed[o]);
-                faces_from.push_back(others.triangles.size());
-                colours.push_back(o);
+                picture.others.append(placed[o]);
+                picture.faces_from.push_back(picture.others.triangles.size());
+                picture.colours.push_back(o);
             }
-            const EyeCamera camera = eye_camera((*frames[viewer])[std::size_t(view.frame)], *sources[viewer], placed[viewer], visibility.half_angle_deg);
-            const std::string caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", view.key, view.frame,
-                                                    names[viewer], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
-            draw_eye_view(folder / fmt::format("key_{}_from_{}.png", view.key, names[viewer]), camera, others, faces_from, colours, caption);
+            picture.path = folder / fmt::format("key_{}_from_{}.png", view.key, names[viewer]);
+            picture.camera = eye_camera((*frames[viewer])[std::size_t(view.frame)], *sources[viewer], placed[viewer], visibility.half_angle_deg);
+            picture.caption = fmt::format("key {}, output frame {}: from {}'s eyes; circle: the {:g} deg view cone{}", view.key, view.frame,
+                                          names[viewer], visibility.half_angle_deg, visibility.enabled ? "" : " (visibility not asked)");
         }
     }
+    parallel_for(pictures.size(), [&pictures](std::size_t p) {
+        const EyePicture& picture = pictures[p];
+        draw_eye_view(picture.path, picture.camera, picture.others, picture.faces_from, picture.colours, picture.caption);
+    });
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 
@@ -44,9 +45,15 @@ Amhv restrict_to_box(const Amhv& volume, const Box3& box) {
 }
 
 Amhv difference(const Amhv& a, const Amhv& b) {
-    Amhv out = a;
-    for (int w = 0; w < a.words(); ++w)
-        for (std::size_t v = 0; v < a.voxel_count(); ++v) out.plane(w)[v] &= ~b.word(w, v);
+    Amhv out(a.grid(), a.frames());
+    // The planes are contiguous: the words are split into chunks over every core.
+    const std::size_t words = std::size_t(a.words()) * a.voxel_count(), chunk = std::size_t(1) << 18;
+    const std::uint32_t* from = a.mask().data();
+    const std::uint32_t* minus = b.mask().data();
+    std::uint32_t* to = out.plane(0);
+    parallel_for((words + chunk - 1) / chunk, [&](std::size_t c) {
+        for (std::size_t i = c * chunk; i < std::min(words, (c + 1) * chunk); ++i) to[i] = from[i] & ~minus[i];
+    });
     return out;
 }
 

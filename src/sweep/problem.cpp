@@ -102,27 +102,29 @@ void validate(const SweepProblem& problem) {
 PoseRange automatic_range(const SweepObject& a, const SweepObject& b, double voxel, int angles) {
     PoseRange range;
     range.angles = angles;
-    // A's occupied interest columns, in metres.
+    // A's occupied interest columns, in metres: origin + voxel * index grows with the index, so the
+    // extreme indices give the box.
     const VoxelGrid& ga = a.interest.grid();
     Box3 a_box;
-    for (int z = 0; z < ga.dims[2]; ++z)
-        for (int y = 0; y < ga.dims[1]; ++y)
-            for (int x = 0; x < ga.dims[0]; ++x)
-                if (a.interest.any(ga.index(x, y, z))) {
-                    a_box.extend(ga.origin + voxel * Vec3(x, y, z));
-                    a_box.extend(ga.origin + voxel * Vec3(x + 1, y + 1, z + 1));
-                }
-    // B's occupied interest cells lie within `reach` of its root on the floor, at any angle.
+    if (const auto extremes = occupied_index_bounds(a.interest)) {
+        const auto& [low, high] = *extremes;
+        a_box.extend(ga.origin + voxel * Vec3(low[0], low[1], low[2]));
+        a_box.extend(ga.origin + voxel * Vec3(high[0] + 1, high[1] + 1, high[2] + 1));
+    }
+    // B's occupied interest cells lie within `reach` of its root on the floor, at any angle: the
+    // corners of its occupied columns (a maximum, the same in any order).
     const VoxelGrid& gb = b.interest.grid();
+    std::vector<std::uint8_t> occupied_column(std::size_t(gb.dims[0]) * std::size_t(gb.dims[1]), 0);
+    for (const auto& slice : occupied_by_slice(b.interest))
+        for (const std::uint32_t v : slice) occupied_column[v] = 1;
     double reach = 0;
-    for (int z = 0; z < gb.dims[2]; ++z)
-        for (int y = 0; y < gb.dims[1]; ++y)
-            for (int x = 0; x < gb.dims[0]; ++x)
-                if (b.interest.any(gb.index(x, y, z)))
-                    for (int corner = 0; corner < 4; ++corner) {
-                        Vec3 p = gb.origin + voxel * Vec3(x + (corner & 1), y + (corner >> 1), 0);
-                        reach = std::max(reach, std::hypot(p.x() - b.root.x(), p.y() - b.root.y()));
-                    }
+    for (int y = 0; y < gb.dims[1]; ++y)
+        for (int x = 0; x < gb.dims[0]; ++x)
+            if (occupied_column[std::size_t(y) * std::size_t(gb.dims[0]) + std::size_t(x)])
+                for (int corner = 0; corner < 4; ++corner) {
+                    Vec3 p = gb.origin + voxel * Vec3(x + (corner & 1), y + (corner >> 1), 0);
+                    reach = std::max(reach, std::hypot(p.x() - b.root.x(), p.y() - b.root.y()));
+                }
     if (a_box.empty()) return range;
     // A column u of A can only take B's value at offset s if |centre(u) - (C^A + s)| <= reach.
     range.i_first = int(std::floor((a_box.min.x() - reach - a.root.x()) / voxel)) - 1;

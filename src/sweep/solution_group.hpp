@@ -6,6 +6,7 @@
 // 72. The members keep the sweep's order (z, theta, y, x); member n is the n-th pose in that order
 // (the DP's state index). The descriptors (L, thetaA, thetaB) are computed from a pose when needed.
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <Eigen/Core>
@@ -76,12 +77,19 @@ template <typename Keep>
 SolutionGroup solution_group(const SweepResult& result, Keep&& keep) {
     SolutionGroup group;
     const PoseRange& r = result.range;
+    if (r.i_last < r.i_first) return group;
     for (int l = r.z_first; l <= r.z_last; ++l)
         for (int k = 0; k < r.angles; ++k)
             for (int j = r.j_first; j <= r.j_last; ++j) {
+                // Solutions are rare: memchr skips to each.
                 const PoseOutcome* row = &result.outcomes[result.index(r.i_first, j, k, l)];
-                for (int i = r.i_first; i <= r.i_last; ++i)
-                    if (row[i - r.i_first] == PoseOutcome::Solution && keep(PoseIndex{i, j, k, l})) group.add({i, j, k, l});
+                const std::size_t width = std::size_t(r.i_last - r.i_first + 1);
+                for (const void* at = std::memchr(row, int(PoseOutcome::Solution), width); at;) {
+                    const std::size_t offset = std::size_t(static_cast<const PoseOutcome*>(at) - row);
+                    const int i = r.i_first + int(offset);
+                    if (keep(PoseIndex{i, j, k, l})) group.add({i, j, k, l});
+                    at = std::memchr(row + offset + 1, int(PoseOutcome::Solution), width - offset - 1);
+                }
             }
     return group;
 }
