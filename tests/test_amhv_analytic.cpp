@@ -103,11 +103,23 @@ TEST(AmhvAnalytic, PartsOfTheSummaryAreItsValues) {
             EXPECT_EQ(bounds.max, summary.bounds.max) << what;
         }
         EXPECT_EQ(occupied_root(volume), summary.root) << what;
+        // The occupied voxels per slice are those any() finds, in order (8 at a time and a tail).
+        const auto slices = occupied_by_slice(volume);
+        ASSERT_EQ(slices.size(), std::size_t(volume.grid().dims[2])) << what;
+        const std::size_t per_slice = std::size_t(volume.grid().dims[0]) * std::size_t(volume.grid().dims[1]);
+        for (std::size_t z = 0; z < slices.size(); ++z) {
+            std::vector<std::uint32_t> expected;
+            for (std::size_t v = 0; v < per_slice; ++v)
+                if (volume.any(z * per_slice + v)) expected.push_back(std::uint32_t(v));
+            EXPECT_EQ(slices[z], expected) << what << " slice " << z;
+        }
     };
     Amhv volume(grid, 70);
     expect_parts(volume, "empty");
     volume.set(grid.index(36, 0, 17), 69);
     expect_parts(volume, "one voxel in the last word");
+    volume.set(grid.index(36, 22, 40), 3);  // the last voxel of the last slice: in the tail of 851 = 106 * 8 + 3
+    expect_parts(volume, "and one in a slice's tail");
     EXPECT_TRUE(any_occupied(volume));
     std::mt19937 random(5);
     for (int k = 0; k < 900; ++k)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numbers>
 
@@ -10,6 +11,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "host/choose/chain_alternatives.hpp"
 
 namespace amhv {
@@ -20,14 +22,52 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 Eigen::Vector2d rotate(double angle, const Eigen::Vector2d& v) { return Eigen::Rotation2Dd(angle) * v; }
 
-double unary(const ChainSegment& s, const ChainWeights& w, int j, int d) {
-    const ChainSolution& sol = s.solutions[std::size_t(j)];
-    const double delta = w.a_rotations_rad[std::size_t(d)];
-    const Eigen::Vector2d r(sol.i * w.voxel, sol.j * w.voxel);
-    const double facing = (2 - 2 * std::cos(delta)) + (2 - 2 * std::cos(w.yaw_a + delta + sol.theta_rad - w.yaw_b));
-    const double prior = (r - s.prior_offset).squaredNorm() + std::pow(angles::wrap_radians(sol.theta_rad - s.prior_theta_rad), 2);
-    const double cost = w.lambda * facing + w.mu * prior;
-    return s.extra_unary.empty() ? cost : cost + s.extra_unary[std::size_t(j)];
+// The unary term of a segment's solutions at one A rotation. Its terms of theta are kept from one
+// solution to the next while theta stays the same (solutions come in (theta, y, x) order): the
+// same arithmetic, so the same bits, at a fraction of the cosines.
+class UnaryTerms {
+public:
+    UnaryTerms(const ChainSegment& s, const ChainWeights& w, int d) : s_(s), w_(w), delta_(w.a_rotations_rad[std::size_t(d)]) {}
+
+    double operator()(std::size_t j) {
+        const ChainSolution& sol = s_.solutions[j];
+        if (!known_ || sol.theta_rad != theta_) {
+            known_ = true;
+            theta_ = sol.theta_rad;
+            facing_ = (2 - 2 * std::cos(delta_)) + (2 - 2 * std::cos(w_.yaw_a + delta_ + sol.theta_rad - w_.yaw_b));
+            turn_ = std::pow(angles::wrap_radians(sol.theta_rad - s_.prior_theta_rad), 2);
+        }
+        const Eigen::Vector2d r(sol.i * w_.voxel, sol.j * w_.voxel);
+        const double prior = (r - s_.prior_offset).squaredNorm() + turn_;
+        const double cost = w_.lambda * facing_ + w_.mu * prior;
+        return s_.extra_unary.empty() ? cost : cost + s_.extra_unary[j];
+    }
+
+private:
+    const ChainSegment& s_;
+    const ChainWeights& w_;
+    double delta_;
+    bool known_ = false;
+    double theta_ = 0, facing_ = 0, turn_ = 0;
+};
+
+double unary(const ChainSegment& s, const ChainWeights& w, int j, int d) { return UnaryTerms(s, w, d)(std::size_t(j)); }
+
+// Solutions are handed to the cores in chunks of this many.
+constexpr std::size_t kChunk = std::size_t(1) << 15;
+
+void for_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& work) {
+    parallel_for((n + kChunk - 1) / kChunk, [&](std::size_t c) { work(c * kChunk, std::min(n, (c + 1) * kChunk)); });
+}
+
+// cost[j]: the unary term of every solution j of segment i at rotation d that the restrictions
+// allow, else infinity; on every core.
+void fill_unary(const ChainSegment& seg, std::size_t i, int d, const ChainWeights& w, const ChainRestrictions* restrictions, std::vector<double>& cost) {
+    for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
+        UnaryTerms terms(seg, w, d);
+        for (std::size_t j = first; j < last; ++j)
+            cost[j] = !restrictions || restrictions->allows(i, seg.solutions[j], d, w.voxel) ? terms(j) : kInf;
+    });
 }
 
 double pair_factor(const ChainWeights& w) { return std::isinf(w.w_a) ? w.w_b : w.w_a * w.w_b / (w.w_a + w.w_b); }
@@ -112,102 +152,119 @@ void evaluate_chain(const std::vector<ChainSegment>& segments, const ChainWeight
     choice.cost = choice.unary + choice.pairwise;
 }
 
+namespace {
+
+// Best and its argument over the states (k, d) of the segment before, for each state (j, d) of
+// `seg` (the same rotation R): |a + R r - R r'|^2 = |R^-1 a + r - r'|^2, with r and r' on the h
+// grid, a separable 2D distance transform over the cells of the segment before. Its rows, then its
+// columns, are independent: they go to every core.
+void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
+                           const ChainWeights& w, int d, std::size_t i, std::vector<double>& best, std::vector<std::pair<int, int>>& arg) {
+    const double c = pair_factor(w), h = w.voxel;
+    const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
+    int pi0 = INT32_MAX, pi1 = INT32_MIN, pj0 = INT32_MAX, pj1 = INT32_MIN;
+    for (const auto& s : prev.solutions) pi0 = std::min(pi0, s.i), pi1 = std::max(pi1, s.i), pj0 = std::min(pj0, s.j), pj1 = std::max(pj1, s.j);
+    int qi0 = INT32_MAX, qi1 = INT32_MIN, qj0 = INT32_MAX, qj1 = INT32_MIN;
+    for (const auto& s : seg.solutions) qi0 = std::min(qi0, s.i), qi1 = std::max(qi1, s.i), qj0 = std::min(qj0, s.j), qj1 = std::max(qj1, s.j);
+    const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
+    // The distance transform's grids span both groups' boxes: checked before allocating.
+    budget::require_memory((std::uint64_t(pw) * ph + std::uint64_t(ph) * qw + std::uint64_t(qw) * qh) * 12,
+                           fmt::format("the DP's grid between key segments {} and {} ({} x {} and {} x {} cells)", i, i + 1, pw, ph, qw, qh),
+                           "the solution groups spread over too wide an area: narrow x_range / y_range");
+    // Best state of each cell of R_{i-1} (the first in (theta, y, x) order on ties).
+    std::vector<double> cell(std::size_t(pw) * ph, kInf);
+    std::vector<int> cell_state(std::size_t(pw) * ph, -1);
+    for (int k = 0; k < int(prev.solutions.size()); ++k) {
+        const auto& s = prev.solutions[std::size_t(k)];
+        std::size_t at = std::size_t(s.j - pj0) * pw + std::size_t(s.i - pi0);
+        if (g[std::size_t(k)] < cell[at]) cell[at] = g[std::size_t(k)], cell_state[at] = k;
+    }
+    // Pass 1, along x per row of R_{i-1}: centres (i h + shift.x), queries q_i h.
+    std::vector<double> vx(static_cast<std::size_t>(pw)), qx(static_cast<std::size_t>(qw)), vy(static_cast<std::size_t>(ph)), qy(static_cast<std::size_t>(qh));
+    for (int x = 0; x < pw; ++x) vx[std::size_t(x)] = (pi0 + x) * h + shift.x();
+    for (int x = 0; x < qw; ++x) qx[std::size_t(x)] = (qi0 + x) * h;
+    for (int y = 0; y < ph; ++y) vy[std::size_t(y)] = (pj0 + y) * h + shift.y();
+    for (int y = 0; y < qh; ++y) qy[std::size_t(y)] = (qj0 + y) * h;
+    std::vector<double> rows(std::size_t(ph) * qw);
+    std::vector<int> row_arg(std::size_t(ph) * qw);
+    parallel_for(std::size_t(ph), [&](std::size_t y) {
+        const std::vector<double> line(cell.begin() + std::ptrdiff_t(y) * pw, cell.begin() + std::ptrdiff_t(y + 1) * pw);
+        std::vector<double> f;
+        std::vector<int> am;
+        lower_envelope(vx, line, c, qx, f, am);
+        std::copy(f.begin(), f.end(), rows.begin() + std::ptrdiff_t(y) * qw);
+        std::copy(am.begin(), am.end(), row_arg.begin() + std::ptrdiff_t(y) * qw);
+    });
+    // Pass 2, along y per query column.
+    std::vector<double> field(std::size_t(qw) * qh);
+    std::vector<int> field_state(std::size_t(qw) * qh, -1);
+    parallel_for(std::size_t(qw), [&](std::size_t x) {
+        std::vector<double> column(static_cast<std::size_t>(ph)), f;
+        std::vector<int> am;
+        for (int y = 0; y < ph; ++y) column[std::size_t(y)] = rows[std::size_t(y) * qw + x];
+        lower_envelope(vy, column, c, qy, f, am);
+        for (int y = 0; y < qh; ++y) {
+            field[std::size_t(y) * qw + x] = f[std::size_t(y)];
+            if (am[std::size_t(y)] >= 0) {
+                const int py = am[std::size_t(y)];
+                const int px = row_arg[std::size_t(py) * qw + x];
+                field_state[std::size_t(y) * qw + x] = cell_state[std::size_t(py) * pw + std::size_t(px)];
+            }
+        }
+    });
+    for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
+        for (std::size_t j = first; j < last; ++j) {
+            const auto& s = seg.solutions[j];
+            const std::size_t at = std::size_t(s.j - qj0) * qw + std::size_t(s.i - qi0);
+            if (field[at] < best[j]) best[j] = field[at], arg[j] = {field_state[at], d};
+        }
+    });
+}
+
+// The same through another rotation dp of the segment before: the two point sets are not on one
+// grid, so the direct minimum, each state of `seg` on its own core's share.
+void other_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
+                            const ChainWeights& w, int d, int dp, std::vector<double>& best, std::vector<std::pair<int, int>>& arg) {
+    const double c = pair_factor(w);
+    for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
+        for (std::size_t j = first; j < last; ++j) {
+            const Eigen::Vector2d qj = offset(seg.solutions[j], w, d);
+            for (int k = 0; k < int(prev.solutions.size()); ++k) {
+                const double v = g[std::size_t(k)] + c * (a + offset(prev.solutions[std::size_t(k)], w, dp) - qj).squaredNorm();
+                if (v < best[j]) best[j] = v, arg[j] = {k, dp};
+            }
+        }
+    });
+}
+
+}  // namespace
+
 ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w, const ChainRestrictions* restrictions) {
     check(segments, w);
     const int rotations = int(w.a_rotations_rad.size());
-    const double c = pair_factor(w);
-    const double h = w.voxel;
     // cost[i][d][j] = best cost of segments 0..i ending in state (j, d); from[i][d][j] = (j', d') before it.
     std::vector<std::vector<std::vector<double>>> cost(segments.size());
     std::vector<std::vector<std::vector<std::pair<int, int>>>> back(segments.size());
     for (std::size_t i = 0; i < segments.size(); ++i) {
         const auto& seg = segments[i];
-        const int n = int(seg.solutions.size());
-        cost[i].assign(std::size_t(rotations), std::vector<double>(std::size_t(n), kInf));
-        back[i].assign(std::size_t(rotations), std::vector<std::pair<int, int>>(std::size_t(n), {-1, -1}));
+        const std::size_t n = seg.solutions.size();
+        cost[i].assign(std::size_t(rotations), std::vector<double>(n));
+        back[i].assign(std::size_t(rotations), std::vector<std::pair<int, int>>(n, {-1, -1}));
         for (int d = 0; d < rotations; ++d) {
-            for (int j = 0; j < n; ++j)
-                cost[i][std::size_t(d)][std::size_t(j)] = !restrictions || restrictions->allows(i, seg.solutions[std::size_t(j)], d, w.voxel) ? unary(seg, w, j, d) : kInf;
+            std::vector<double>& here = cost[i][std::size_t(d)];
+            fill_unary(seg, i, d, w, restrictions, here);
             if (i == 0) continue;
             const auto& prev = segments[i - 1];
             const Eigen::Vector2d a = displacement_term(prev, seg, w);
-            std::vector<double> best(std::size_t(n), kInf);
-            std::vector<std::pair<int, int>> arg(std::size_t(n), {-1, -1});
+            std::vector<double> best(n, kInf);
+            std::vector<std::pair<int, int>> arg(n, {-1, -1});
             for (int dp = 0; dp < rotations; ++dp) {
                 const auto& g = cost[i - 1][std::size_t(dp)];
-                if (dp == d) {
-                    // Same rotation R: |a + R r - R r'|^2 = |R^-1 a + r - r'|^2, with r and r' on the
-                    // h grid: a separable 2D distance transform over the cells of R_{i-1}.
-                    const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
-                    int pi0 = INT32_MAX, pi1 = INT32_MIN, pj0 = INT32_MAX, pj1 = INT32_MIN;
-                    for (const auto& s : prev.solutions) pi0 = std::min(pi0, s.i), pi1 = std::max(pi1, s.i), pj0 = std::min(pj0, s.j), pj1 = std::max(pj1, s.j);
-                    int qi0 = INT32_MAX, qi1 = INT32_MIN, qj0 = INT32_MAX, qj1 = INT32_MIN;
-                    for (const auto& s : seg.solutions) qi0 = std::min(qi0, s.i), qi1 = std::max(qi1, s.i), qj0 = std::min(qj0, s.j), qj1 = std::max(qj1, s.j);
-                    const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
-                    // The distance transform's grids span both groups' boxes: checked before allocating.
-                    budget::require_memory((std::uint64_t(pw) * ph + std::uint64_t(ph) * qw + std::uint64_t(qw) * qh) * 12,
-                                           fmt::format("the DP's grid between key segments {} and {} ({} x {} and {} x {} cells)", i, i + 1, pw, ph, qw, qh),
-                                           "the solution groups spread over too wide an area: narrow x_range / y_range");
-                    // Best state of each cell of R_{i-1} (the first in (theta, y, x) order on ties).
-                    std::vector<double> cell(std::size_t(pw) * ph, kInf);
-                    std::vector<int> cell_state(std::size_t(pw) * ph, -1);
-                    for (int k = 0; k < int(prev.solutions.size()); ++k) {
-                        const auto& s = prev.solutions[std::size_t(k)];
-                        std::size_t at = std::size_t(s.j - pj0) * pw + std::size_t(s.i - pi0);
-                        if (g[std::size_t(k)] < cell[at]) cell[at] = g[std::size_t(k)], cell_state[at] = k;
-                    }
-                    // Pass 1, along x per row of R_{i-1}: centres (i h + shift.x), queries q_i h.
-                    std::vector<double> vx(static_cast<std::size_t>(pw)), qx(static_cast<std::size_t>(qw)), vy(static_cast<std::size_t>(ph)), qy(static_cast<std::size_t>(qh));
-                    for (int x = 0; x < pw; ++x) vx[std::size_t(x)] = (pi0 + x) * h + shift.x();
-                    for (int x = 0; x < qw; ++x) qx[std::size_t(x)] = (qi0 + x) * h;
-                    for (int y = 0; y < ph; ++y) vy[std::size_t(y)] = (pj0 + y) * h + shift.y();
-                    for (int y = 0; y < qh; ++y) qy[std::size_t(y)] = (qj0 + y) * h;
-                    std::vector<double> rows(std::size_t(ph) * qw);
-                    std::vector<int> row_arg(std::size_t(ph) * qw);
-                    std::vector<double> f;
-                    std::vector<int> am;
-                    for (int y = 0; y < ph; ++y) {
-                        std::vector<double> line(cell.begin() + std::ptrdiff_t(y) * pw, cell.begin() + std::ptrdiff_t(y + 1) * pw);
-                        lower_envelope(vx, line, c, qx, f, am);
-                        std::copy(f.begin(), f.end(), rows.begin() + std::ptrdiff_t(y) * qw);
-                        std::copy(am.begin(), am.end(), row_arg.begin() + std::ptrdiff_t(y) * qw);
-                    }
-                    // Pass 2, along y per query column.
-                    std::vector<double> column(static_cast<std::size_t>(ph));
-                    std::vector<double> field(std::size_t(qw) * qh);
-                    std::vector<int> field_state(std::size_t(qw) * qh, -1);
-                    for (int x = 0; x < qw; ++x) {
-                        for (int y = 0; y < ph; ++y) column[std::size_t(y)] = rows[std::size_t(y) * qw + std::size_t(x)];
-                        lower_envelope(vy, column, c, qy, f, am);
-                        for (int y = 0; y < qh; ++y) {
-                            field[std::size_t(y) * qw + std::size_t(x)] = f[std::size_t(y)];
-                            if (am[std::size_t(y)] >= 0) {
-                                int py = am[std::size_t(y)];
-                                int px = row_arg[std::size_t(py) * qw + std::size_t(x)];
-                                field_state[std::size_t(y) * qw + std::size_t(x)] = cell_state[std::size_t(py) * pw + std::size_t(px)];
-                            }
-                        }
-                    }
-                    for (int j = 0; j < n; ++j) {
-                        const auto& s = seg.solutions[std::size_t(j)];
-                        std::size_t at = std::size_t(s.j - qj0) * qw + std::size_t(s.i - qi0);
-                        if (field[at] < best[std::size_t(j)]) best[std::size_t(j)] = field[at], arg[std::size_t(j)] = {field_state[at], dp};
-                    }
-                } else {
-                    // Different rotations: the two point sets are not on one grid; direct minimum.
-                    for (int j = 0; j < n; ++j) {
-                        const Eigen::Vector2d qj = offset(seg.solutions[std::size_t(j)], w, d);
-                        for (int k = 0; k < int(prev.solutions.size()); ++k) {
-                            const double v = g[std::size_t(k)] + c * (a + offset(prev.solutions[std::size_t(k)], w, dp) - qj).squaredNorm();
-                            if (v < best[std::size_t(j)]) best[std::size_t(j)] = v, arg[std::size_t(j)] = {k, dp};
-                        }
-                    }
-                }
+                if (dp == d) same_rotation_minimum(prev, seg, g, a, w, d, i, best, arg);
+                else other_rotation_minimum(prev, seg, g, a, w, d, dp, best, arg);
             }
-            for (int j = 0; j < n; ++j) {
-                cost[i][std::size_t(d)][std::size_t(j)] += best[std::size_t(j)];  // inf stays inf: a state no allowed path reaches
-                back[i][std::size_t(d)][std::size_t(j)] = arg[std::size_t(j)];
-            }
+            for (std::size_t j = 0; j < n; ++j) here[j] += best[j];  // inf stays inf: a state no allowed path reaches
+            back[i][std::size_t(d)] = std::move(arg);
         }
         // Only the back pointers of earlier segments are read again: at 5 mm the costs of every
         // segment were a gigabyte beside the sweep's results.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <numeric>
@@ -169,7 +170,13 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
         c.solutions.reserve(s.group.size());
-        s.group.for_each([&](const PoseIndex& p) { c.solutions.push_back({p.i, p.j, radians(s.describe.theta_deg(p.k))}); });
+        // theta of angle index k, once per run of equal k (the group's order is (z, theta, y, x)).
+        int angle = std::numeric_limits<int>::min();
+        double theta = 0;
+        s.group.for_each([&](const PoseIndex& p) {
+            if (p.k != angle) angle = p.k, theta = radians(s.describe.theta_deg(p.k));
+            c.solutions.push_back({p.i, p.j, theta});
+        });
         // The editor's placements leave B's height as captured (z = 0): with z_range the prior
         // gains mu z^2, so that among equal poses the one least raised or lowered wins.
         if (key.intent.prefers() || s.group.any_raised()) {
