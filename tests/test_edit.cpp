@@ -10,6 +10,7 @@
 #include <fstream>
 #include <numbers>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <unistd.h>
@@ -22,6 +23,7 @@
 
 #include "src/body/shapes.hpp"
 #include "src/edit/edit.hpp"
+#include "src/edit/frame_check.hpp"
 #include "src/edit/timeline.hpp"
 #include "host/reference/voxelise_reference.hpp"
 #include "src/scene/scene.hpp"
@@ -748,6 +750,46 @@ TEST(Edit, ThePagePlaysTheSceneAndPlotsTheGroupInABrowser) {
     auto no_scene = test::run_amhv(fmt::format("view '{}'", (root / "bare").string()));
     EXPECT_EQ(no_scene.exit_code, 1);
     EXPECT_NE(no_scene.output.find("scene.glb"), std::string::npos) << no_scene.output;
+}
+
+}  // namespace
+}  // namespace amhv
+
+
+namespace amhv {
+namespace {
+
+// The gap's nearest pair of voxel centres (a k-d tree on the smaller side, built on the points that
+// can beat a first answer, asked nearest-box first with early stops) against brute force: bodies
+// apart, interleaved and packed into touching cells, either side the larger.
+TEST(FrameCheck, NearestVoxelsIsTheBruteForceMinimum) {
+    VoxelGrid grid;
+    grid.voxel = 0.01;
+    grid.origin = Vec3::Zero();
+    grid.dims = {50, 50, 50};
+    std::mt19937 random(28);
+    for (int round = 0; round < 90; ++round) {
+        std::set<std::array<int, 3>> taken;  // the bodies share no voxel
+        const auto body = [&](std::size_t count, int lo, int size, Box3& box) {
+            std::vector<std::array<double, 3>> points;
+            while (points.size() < count) {
+                const std::array<int, 3> c{lo + int(random() % unsigned(size)), lo + int(random() % unsigned(size)), lo + int(random() % unsigned(size))};
+                if (!taken.insert(c).second) continue;
+                points.push_back({double(c[0]), double(c[1]), double(c[2])});
+                box.extend(grid.centre(c[0], c[1], c[2]));
+            }
+            return points;
+        };
+        const int shape = round % 3;  // apart, interleaved, packed
+        Box3 box_a, box_b;
+        const auto a = body(1 + random() % 300, shape == 0 ? 0 : shape == 1 ? 10 : 20, shape == 2 ? 9 : 20, box_a);
+        const auto b = body(1 + random() % 300, shape == 0 ? 28 : shape == 1 ? 10 : 20, shape == 2 ? 9 : 20, box_b);
+        double squared = std::numeric_limits<double>::infinity();
+        for (const auto& p : a)
+            for (const auto& q : b) squared = std::min(squared, (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+        EXPECT_EQ(detail::nearest_voxels(grid, a, b, box_a, box_b), std::sqrt(squared)) << "round " << round;
+        EXPECT_EQ(detail::nearest_voxels(grid, b, a, box_b, box_a), std::sqrt(squared)) << "round " << round;
+    }
 }
 
 }  // namespace

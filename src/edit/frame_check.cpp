@@ -67,43 +67,69 @@ Boundary within(const std::vector<std::array<double, 3>>& all, const Region& reg
     return out;
 }
 
-// The queries in increasing order of their squared distance to the box of the indexed points (a
-// lower bound of their nearest distance), each with that bound. Squared integer distances: exact.
-std::vector<std::pair<double, std::size_t>> queries_by_bound(const Boundary& queries, const Boundary& indexed) {
+// The box of a set of voxel coordinates.
+struct PointBox {
     std::array<double, 3> lo, hi;
-    lo.fill(std::numeric_limits<double>::infinity());
-    hi.fill(-std::numeric_limits<double>::infinity());
-    for (const auto& p : indexed.points)
-        for (std::size_t axis = 0; axis < 3; ++axis) lo[axis] = std::min(lo[axis], p[axis]), hi[axis] = std::max(hi[axis], p[axis]);
-    std::vector<std::pair<double, std::size_t>> order(queries.points.size());
-    for (std::size_t q = 0; q < order.size(); ++q) {
+    explicit PointBox(const Boundary& set) {
+        lo.fill(std::numeric_limits<double>::infinity());
+        hi.fill(-std::numeric_limits<double>::infinity());
+        for (const auto& p : set.points)
+            for (std::size_t axis = 0; axis < 3; ++axis) lo[axis] = std::min(lo[axis], p[axis]), hi[axis] = std::max(hi[axis], p[axis]);
+    }
+    // The squared distance from p to the box: a lower bound of p's distance to every point in it
+    // (integer coordinates: exact).
+    double squared_distance(const std::array<double, 3>& p) const {
         double squared = 0;
         for (std::size_t axis = 0; axis < 3; ++axis) {
-            const double out = std::max({0.0, lo[axis] - queries.points[q][axis], queries.points[q][axis] - hi[axis]});
+            const double out = std::max({0.0, lo[axis] - p[axis], p[axis] - hi[axis]});
             squared += out * out;
         }
-        order[q] = {squared, q};
+        return squared;
     }
-    std::sort(order.begin(), order.end());
-    return order;
+};
+
+
+double squared_between(const std::array<double, 3>& p, const std::array<double, 3>& q) {
+    return (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]);
 }
+
+}  // namespace
+
+namespace detail {
 
 // The smallest distance between the centres of A's and B's voxels, in voxels (exact: squared
 // integer distances), by a k-d tree over one side's boundary (nanoflann). Only boundary voxels
 // within the reach of the other body's box take part: a nearer pair within the reach lies there.
+// The query nearest the other side's box gives a first answer u by brute force; only points of
+// the other side nearer than sqrt(u) to the queries' box can make a nearer pair, so the tree holds
+// those alone, and the queries are asked nearest-box first until their bound reaches the answer.
 double nearest_voxels(const VoxelGrid& grid, const std::vector<std::array<double, 3>>& boundary_a, const std::vector<std::array<double, 3>>& boundary_b,
                       const Box3& box_a, const Box3& box_b) {
     const double reach = kGapReach + 2 * grid.voxel;
     const Boundary a = within(boundary_a, near_box(grid, box_b, reach)), b = within(boundary_b, near_box(grid, box_a, reach));
     if (a.points.empty() || b.points.empty()) return std::numeric_limits<double>::infinity();
-    const Boundary& indexed = a.points.size() <= b.points.size() ? a : b;  // the smaller: the queries mostly stop at their bound
+    const Boundary& indexed = a.points.size() <= b.points.size() ? a : b;
     const Boundary& queries = &indexed == &a ? b : a;
-    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Boundary>, Boundary, 3>;
-    Tree tree(3, indexed, nanoflann::KDTreeSingleIndexAdaptorParams(16));
-    tree.buildIndex();
+    // Each query with its squared distance to the indexed points' box.
+    const PointBox indexed_box(indexed);
+    std::vector<std::pair<double, std::size_t>> order(queries.points.size());
+    for (std::size_t q = 0; q < order.size(); ++q) order[q] = {indexed_box.squared_distance(queries.points[q]), q};
+    const std::size_t first = std::size_t(std::min_element(order.begin(), order.end()) - order.begin());
     double best = std::numeric_limits<double>::infinity();
+    for (const auto& p : indexed.points) best = std::min(best, squared_between(p, queries.points[order[first].second]));
+    // Only the queries that can come nearer, nearest-box first.
+    std::erase_if(order, [best](const std::pair<double, std::size_t>& query) { return query.first >= best; });
+    std::sort(order.begin(), order.end());
+    const PointBox query_box(queries);
+    Boundary near;
+    for (const auto& p : indexed.points)
+        if (query_box.squared_distance(p) < best) near.points.push_back(p);
+    if (near.points.empty()) return std::sqrt(best);
+    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Boundary>, Boundary, 3>;
+    Tree tree(3, near, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    tree.buildIndex();
     NearestSoFar result(best);
-    for (const auto& [bound, q] : queries_by_bound(queries, indexed)) {
+    for (const auto& [bound, q] : order) {
         // No later query can come nearer than its bound; and the bodies share no voxel here (the
         // caller handles overlap), so adjacent centres, one voxel apart, are the nearest there are.
         if (bound >= best || best <= 1) break;
@@ -111,6 +137,10 @@ double nearest_voxels(const VoxelGrid& grid, const std::vector<std::array<double
     }
     return std::sqrt(best);
 }
+
+}  // namespace detail
+
+namespace {
 
 // Frames voxelised together: A's bodies take bits 0..n-1 of the word, B's n..2n-1.
 constexpr std::size_t kBatch = 16;
@@ -223,7 +253,7 @@ void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxelise
             check.depth_m = scan.high[f] - scan.low[f] + voxel;
             return;
         }
-        const double centres = nearest_voxels(grid, scan.boundary[f], scan.boundary[n + f], batch[f].box_a, batch[f].box_b) * voxel;
+        const double centres = detail::nearest_voxels(grid, scan.boundary[f], scan.boundary[n + f], batch[f].box_a, batch[f].box_b) * voxel;
         if (centres - voxel <= kGapReach) check.gap_m = std::max(0.0, centres - voxel);
     });
     batch.clear();
