@@ -11,6 +11,7 @@
 #   export LD_LIBRARY_PATH=/tmp/g/lib AMHV_THREE_DIR=/tmp/g/three VK_LAYER_PATH=/tmp/g/layers
 #   export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/nvidia_icd.json   # wherever the driver's ICD file is
 #   /tmp/g/bin/amhv devices
+# or let tools/gpu_checks.sh unpack it and run the prepared device checks.
 set -euo pipefail
 build="$1"; out="$2"
 stage=$(mktemp -d)
@@ -19,6 +20,9 @@ mkdir -p "$stage/bin" "$stage/lib" "$stage/layers"
 bins=("$build/amhv" "$build/tools/amhv_bench_voxelise" "$build/tools/amhv_bench_sweep" "$build/tools/amhv_bench_growth"
       "$build/tools/amhv_make_paper_scene" "$build/tests/amhv_tests")
 cp "${bins[@]}" "$stage/bin/"
+cp /usr/bin/time "$stage/bin/time"  # GNU time (wall and peak memory); the GPU machine's image has none
+# Where the build's source lay: the tests look for the binaries and data there.
+sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build/CMakeCache.txt" > "$stage/source_dir"
 for b in "${bins[@]}"; do ldd "$b" | awk '$3 ~ /^\// {print $3}'; done | sort -u |
   grep -v -E '/(libc|libm|libpthread|libdl|librt|ld-linux-x86-64)\.so' | while read -r lib; do cp -L "$lib" "$stage/lib/"; done
 lib=/usr/lib/x86_64-linux-gnu

@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# The device checks of a lent GPU machine in one prepared run (docs/benchmarks.md, "Figures on the
+# H100"): the test suite in 16 shards with validation on, B1 and B2 (Vulkan paths), B3 at 10 mm /
+# 2 deg (alternating with a second build when given) and at 5 mm / 1 deg with its per-segment log,
+# and B4's key segment 1 at four samplings.
+#
+#   tools/gpu_checks.sh BUNDLE.tar.xz OUT_DIR [BASE_AMHV]
+#
+# Run from the repository root on the GPU machine. BUNDLE comes from tools/gpu_bundle.sh (built
+# here, carried there); BASE_AMHV is another build's `amhv` to time beside it (the same shared
+# libraries). Every step has its own time limit (seconds, from the environment: GPU_TESTS_S,
+# GPU_EDIT10_S, GPU_EDIT5_S, GPU_BENCH_S), so that one slow step leaves the others their share;
+# OUT_DIR gets log.txt (the summary), tests.log, edit5.log and the edits' result.json files. Takes
+# about six minutes on an H100 machine with the defaults.
+set -u
+bundle="$1"; out="$2"; base="${3:-}"
+tests_s="${GPU_TESTS_S:-75}"; edit10_s="${GPU_EDIT10_S:-60}"; edit5_s="${GPU_EDIT5_S:-215}"; bench_s="${GPU_BENCH_S:-60}"
+g=/tmp/g
+start=$(date +%s)
+elapsed() { echo "[$(( $(date +%s) - start )) s] $*"; }
+mkdir -p "$g" "$out" && tar -xJf "$bundle" -C "$g"
+[ -n "$base" ] && cp "$base" "$g/bin/amhv_base" && chmod +x "$g/bin/amhv_base"
+# The tests look for the binaries and data where the build that made them lay.
+src_dir=$(cat "$g/source_dir" 2>/dev/null)
+if [ -n "$src_dir" ] && [ ! -e "$src_dir" ]; then mkdir -p "$(dirname "$src_dir")" && ln -s "$PWD" "$src_dir"; fi
+# Only where nothing lies yet: a build already there is left as it is.
+if [ -n "$src_dir" ]; then
+  mkdir -p "$src_dir/build/tools"
+  [ -e "$src_dir/build/amhv" ] || ln -s "$g/bin/amhv" "$src_dir/build/amhv"
+  [ -e "$src_dir/build/tools/amhv_make_paper_scene" ] || ln -s "$g/bin/amhv_make_paper_scene" "$src_dir/build/tools/amhv_make_paper_scene"
+fi
+export LD_LIBRARY_PATH="$g/lib" AMHV_THREE_DIR="$g/three" VK_LAYER_PATH="$g/layers" AMHV_DATA_DIR="$PWD/data"
+for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json; do
+  [ -f "$icd" ] && { export VK_DRIVER_FILES="$icd"; break; }
+done
+bin="$g/bin"
+
+run_tests() {
+  local i
+  for i in $(seq 0 15); do
+    (GTEST_TOTAL_SHARDS=16 GTEST_SHARD_INDEX=$i timeout "$tests_s" "$bin/amhv_tests" --gtest_brief=1 \
+       --gtest_filter='-*PaperScene*:*Slurm*:*Shard*' > "/tmp/shard$i.log" 2>&1; echo "shard $i rc $?" >> "/tmp/shard$i.log") &
+  done
+  wait
+  cat /tmp/shard*.log > "$out/tests.log"
+  grep -h "rc " /tmp/shard*.log | tr '\n' ' '; echo
+  grep -h "PASSED" /tmp/shard*.log | awk '{s += $4} END {print "passed", s}'
+  grep -h "^\[  FAILED" /tmp/shard*.log | sort -u | cut -c1-110
+}
+
+# edit BINARY SCENE_DIR LABEL LIMIT LOG: one timed `amhv edit`, its wall time, peak and stages.
+edit() {
+  rm -rf /tmp/gpu_edit_out
+  "$bin/time" -f "%e %M" -o /tmp/gpu_edit_time timeout "$4" "$bin/$1" edit "$2/scene.toml" --out /tmp/gpu_edit_out --no-page > "$5" 2>&1
+  echo "$3: rc $? $(tail -1 /tmp/gpu_edit_time 2>/dev/null) $(python3 -c 'import json,sys; t=json.load(open(sys.argv[1]))["timings_s"]; print(" ".join(f"{k} {v:.2f}" for k,v in t.items()))' /tmp/gpu_edit_out/result.json 2>&1 | tail -1)"
+}
+
+{
+  elapsed "devices"; "$bin/amhv" devices 2>&1
+  elapsed "tests: 16 shards"; run_tests
+  elapsed "B1, B2 (Vulkan)"
+  timeout "$bench_s" "$bin/amhv_bench_voxelise" --benchmark_filter=vulkan 2>&1 | grep -E "_(mean|median|stddev) " | cut -c1-100
+  timeout "$bench_s" "$bin/amhv_bench_sweep" --benchmark_filter=vulkan 2>&1 | grep -E "_(mean|median|stddev) " | cut -c1-100
+  elapsed "scenes"
+  "$bin/amhv_make_paper_scene" /tmp/gpu_s10 > /dev/null && rm -rf /tmp/gpu_s05 && cp -r /tmp/gpu_s10 /tmp/gpu_s05
+  sed -i "s/^voxel = .*/voxel = 0.005/; s/^angle_step_deg = .*/angle_step_deg = 1.0/" /tmp/gpu_s05/scene.toml
+  elapsed "B4, key segment 1"
+  "$bin/amhv_bench_growth" --header
+  for sampling in "0.01 2" "0.01 1" "0.005 2" "0.005 1"; do
+    # shellcheck disable=SC2086
+    timeout "$bench_s" "$bin/amhv_bench_growth" /tmp/gpu_s10/scene.toml 1 $sampling | tail -1
+  done
+  elapsed "B3, 10 mm / 2 deg"
+  for run in 1 2; do
+    [ -n "$base" ] && edit amhv_base /tmp/gpu_s10 "10 mm, base, run $run" "$edit10_s" /dev/null
+    edit amhv /tmp/gpu_s10 "10 mm, run $run" "$edit10_s" /dev/null
+  done
+  cp /tmp/gpu_edit_out/result.json "$out/result_10mm.json" 2>/dev/null
+  elapsed "B3, 5 mm / 1 deg"
+  edit amhv /tmp/gpu_s05 "5 mm" "$edit5_s" "$out/edit5.log"
+  cp /tmp/gpu_edit_out/result.json "$out/result_5mm.json" 2>/dev/null
+  elapsed "done"
+} > "$out/log.txt" 2>&1
