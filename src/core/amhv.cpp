@@ -150,15 +150,11 @@ void append_occupied(const Amhv& volume, std::size_t base, std::uint32_t first, 
         if (any[k]) out.push_back(first + k);
 }
 
-// Whether voxels base .. base + 7 are all empty in every word plane (two 64-bit reads a plane).
+// Whether voxels base .. base + 7 are all empty in every word plane.
 bool eight_empty(const Amhv& volume, std::size_t base) {
-    std::uint64_t bits = 0;
-    for (int w = 0; w < volume.words(); ++w) {
-        std::array<std::uint64_t, 4> four;
-        std::memcpy(four.data(), volume.plane(w) + base, sizeof four);
-        bits |= four[0] | four[1] | four[2] | four[3];
-    }
-    return bits == 0;
+    for (int w = 0; w < volume.words(); ++w)
+        if (!eight_words_zero(volume.plane(w) + base)) return false;
+    return true;
 }
 
 }  // namespace

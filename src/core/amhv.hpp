@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <optional>
 #include <utility>
@@ -127,6 +128,14 @@ AmhvSummary summarise(const Amhv& volume);
 bool any_occupied(const Amhv& volume);
 Box3 occupied_bounds(const Amhv& volume);
 Vec3 occupied_root(const Amhv& volume);
+
+// Whether words[0..7] are all zero (four 64-bit reads): scans of a mostly empty plane skip eight
+// voxels at once.
+inline bool eight_words_zero(const std::uint32_t* words) {
+    std::array<std::uint64_t, 4> four;
+    std::memcpy(four.data(), words, sizeof four);
+    return (four[0] | four[1] | four[2] | four[3]) == 0;
+}
 
 // Per z slice, the indices (y * nx + x) of its occupied voxels in increasing order, found on every
 // core: a caller that must visit them in (z, y, x) order, such as a floating-point sum, then visits

@@ -4,13 +4,13 @@
 #include <array>
 #include <bit>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <optional>
 
 #include <fmt/format.h>
 #include <nanoflann.hpp>
 
+#include "src/core/amhv.hpp"
 #include "src/core/parallel.hpp"
 
 namespace amhv {
@@ -87,7 +87,6 @@ struct PointBox {
         return squared;
     }
 };
-
 
 double squared_between(const std::array<double, 3>& p, const std::array<double, 3>& q) {
     return (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]);
@@ -168,13 +167,6 @@ struct BatchScan {
     }
 };
 
-// Whether words[0..7] are all zero (four 64-bit reads).
-bool eight_empty(const std::uint32_t* words) {
-    std::array<std::uint64_t, 4> four;
-    std::memcpy(four.data(), words, sizeof four);
-    return (four[0] | four[1] | four[2] | four[3]) == 0;
-}
-
 // Layers z0..z1-1: each voxel's boundary bits (its word less the AND of its six neighbours' words;
 // outside the grid is empty) and its overlap bits (A's bit f with B's bit n + f), every frame at once.
 BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, int z0, int z1) {
@@ -197,7 +189,7 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
             for (int x = 0; x < g.dims[0]; ++x) {
                 const std::size_t v = g.index(x, y, z);
                 // The bodies fill a few percent of the batch's grid: eight empty voxels at once.
-                if ((x & 7) == 0 && x + 8 <= g.dims[0] && eight_empty(plane + v)) {
+                if ((x & 7) == 0 && x + 8 <= g.dims[0] && eight_words_zero(plane + v)) {
                     x += 7;
                     continue;
                 }

@@ -94,8 +94,6 @@ struct OverlapTest {
     int flag_words() const { return want == Want::Frames ? (frames + 31) / 32 : 1; }
 };
 
-// One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
-// of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
 // One angle's pulled runs in a map test, kept between batches so their buffers are reused.
 struct AngleScratch {
     std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
@@ -104,6 +102,8 @@ struct AngleScratch {
     std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
 };
 
+// One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
+// of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
 struct MapTest {
     const ColumnVolume* fixed;
     const ColumnVolume* moving;
@@ -147,6 +147,7 @@ inline void widen_by_flags(Band& band, const std::uint8_t* row, std::int32_t j, 
     widen(band, j, std::int32_t(first - row));
     widen(band, j, std::int32_t(last - row));
 }
+
 using Meets = std::vector<std::vector<std::uint8_t>>;   // per test and pose: whether the pose meets the test's criterion
 
 // Whether pose p meets every test.
@@ -167,7 +168,6 @@ double pose_test_iterations(const OverlapTest& test);
 // What a block pre-test proves for every pose of its block: a pooled "no overlap" makes an
 // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
 enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
-
 
 // Scratch of the pulled-run pruning, reused by one thread.
 struct PulledPruner {
