@@ -13,7 +13,9 @@
 # OUT_DIR gets log.txt (the summary), tests.log, edit5.log and the edits' result.json files. Takes
 # about six minutes on an H100 machine with the defaults.
 set -u
+if [ $# -lt 2 ] || [ ! -f "$1" ]; then echo "usage: tools/gpu_checks.sh BUNDLE.tar.xz OUT_DIR [BASE_AMHV] (BUNDLE from tools/gpu_bundle.sh)" >&2; exit 2; fi
 bundle="$1"; out="$2"; base="${3:-}"
+if [ -e "$out" ] && [ -n "$(ls -A "$out")" ]; then echo "gpu_checks: $out is not empty; name a new folder" >&2; exit 2; fi
 tests_s="${GPU_TESTS_S:-75}"; edit10_s="${GPU_EDIT10_S:-60}"; edit5_s="${GPU_EDIT5_S:-215}"; bench_s="${GPU_BENCH_S:-60}"
 g=/tmp/g
 start=$(date +%s)
