@@ -12,6 +12,8 @@ namespace amhv {
 
 namespace {
 
+class RunBuckets;
+
 // Cuts one row into maximal runs from whole words, column by column in increasing x (runs of one
 // key come out in increasing x): a run starts where a bit is set and was clear in the previous
 // column, and ends where it was set and is clear now, so the work is per run end rather than per
@@ -21,12 +23,9 @@ public:
     explicit RowRuns(std::size_t words) : previous_(words, 0u), current_(words, 0u), first_(words * 32, 0) {}
     std::size_t words() const { return previous_.size(); }
 
-    void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
-        y_ = y;
-        key_base_ = key_base;
-        out_ = &out;
-        longest_ = &longest;
-    }
+    void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest);
+    // Counts each emitted run into its bucket as it goes (a pass over the runs saved).
+    void count_into(class RunBuckets* buckets) { buckets_ = buckets; }
     // Column x's non-zero words (each word index at most once); columns not added are empty.
     void add(std::int32_t word, std::uint32_t bits) {
         current_[std::size_t(word)] = bits;
@@ -52,17 +51,14 @@ public:
     void end_row(std::int32_t x_last) { end_column(x_last + 1); }
 
 private:
-    void emit(std::int32_t bit, std::int32_t x_last) {
-        const std::int32_t x_first = first_[std::size_t(bit)];
-        out_->push_back({y_, x_first, x_last, key_base_ + bit});
-        *longest_ = std::max(*longest_, int(x_last - x_first + 1));
-    }
+    void emit(std::int32_t bit, std::int32_t x_last);
     std::vector<std::uint32_t> previous_, current_;
     std::vector<std::int32_t> previous_words_, current_words_;
     std::vector<std::int32_t> first_;
     std::int32_t y_ = 0, key_base_ = 0;
     std::vector<SliceRun>* out_ = nullptr;
     int* longest_ = nullptr;
+    class RunBuckets* buckets_ = nullptr;
 };
 
 void check_lattice(std::int64_t x0, std::int64_t y0, int nx, int ny) {
@@ -124,6 +120,50 @@ int map_pass_of_run(std::int32_t key, int zbits, int y, int passes) {
     return map_pass_of(z, y, passes);
 }
 
+// The counting sort of pulled runs into (map pass, key) order: `first` gets each bucket's count
+// (at its index + 1) as runs are emitted, then each bucket's first place, then each run's place.
+class RunBuckets {
+public:
+    RunBuckets(std::vector<std::uint32_t>& first, int passes, int zbits, std::size_t key_count, std::int32_t key_base)
+        : first_(first), passes_(passes), zbits_(zbits), key_count_(key_count), key_base_(key_base) {
+        first_.assign(std::size_t(passes) * key_count + 1, 0u);
+    }
+    std::size_t buckets() const { return first_.size() - 1; }
+    std::size_t of(const SliceRun& run) const {
+        const std::size_t key = std::size_t(run.key - key_base_);
+        return passes_ == 1 ? key : std::size_t(map_pass_of_run(run.key, zbits_, run.y, passes_)) * key_count_ + key;
+    }
+    void start_row(std::int32_t y) { y_ = y; }
+    void count(std::int32_t key) { ++first_[of(SliceRun{y_, 0, 0, key}) + 1]; }
+    // After the counts: each bucket's first place (relative to the output's base).
+    void accumulate() {
+        for (std::size_t b = 0; b < buckets(); ++b) first_[b + 1] += first_[b];
+    }
+    std::uint32_t first_of_pass(int pass) const { return first_[std::size_t(pass) * key_count_]; }
+    std::uint32_t place(const SliceRun& run) { return first_[of(run)]++; }
+
+private:
+    std::vector<std::uint32_t>& first_;
+    int passes_, zbits_;
+    std::size_t key_count_;
+    std::int32_t key_base_, y_ = 0;
+};
+
+void RowRuns::start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest) {
+    y_ = y;
+    key_base_ = key_base;
+    out_ = &out;
+    longest_ = &longest;
+    if (buckets_) buckets_->start_row(y);
+}
+
+void RowRuns::emit(std::int32_t bit, std::int32_t x_last) {
+    const std::int32_t x_first = first_[std::size_t(bit)];
+    out_->push_back({y_, x_first, x_last, key_base_ + bit});
+    if (buckets_) buckets_->count(key_base_ + bit);
+    *longest_ = std::max(*longest_, int(x_last - x_first + 1));
+}
+
 // Fills FixedRuns::window_hulls from row_hulls: each level joins two windows of the level below.
 void add_window_hulls(FixedRuns& result) {
     using Hull = std::array<std::int32_t, 2>;
@@ -146,6 +186,57 @@ void add_window_hulls(FixedRuns& result) {
         below = &windows;
     }
 }
+
+// Walks one row of A's lattice over its stretch, reading the sparse words of the B column under
+// each A column into RowRuns. The B columns along a rotated row are scattered in memory, so the
+// column index kIndexAhead columns ahead and the words kWordsAhead ahead are prefetched.
+class RowCut {
+public:
+    // `clips`: per slot index, the A columns its words are kept in (null: all).
+    RowCut(const SparseColumns& sparse, const SlotClips* clips) : sparse_(sparse), moving_(*sparse.volume), clips_(clips) {}
+
+    void walk(std::int32_t gy, const RowStretch& stretch, RowRuns& row) const {
+        posemap::Step at = stretch.at, index_ahead = ahead(at, kIndexAhead), words_ahead = ahead(at, kWordsAhead);
+        for (std::int32_t gx = stretch.first; gx <= stretch.last; ++gx) {
+            if (const std::int64_t c = column_of(index_ahead); c >= 0) __builtin_prefetch(sparse_.first.data() + c);
+            if (const std::int64_t c = column_of(words_ahead); c >= 0) __builtin_prefetch(sparse_.entries.data() + sparse_.first[std::size_t(c)]);
+            if (const std::int64_t c = column_of(at); c >= 0) add_column(std::size_t(c), gx, gy, row);
+            row.end_column(gx);
+            at.advance(), index_ahead.advance(), words_ahead.advance();
+        }
+        row.end_row(stretch.last);
+    }
+
+private:
+    static constexpr int kIndexAhead = 16, kWordsAhead = 8;
+
+    static posemap::Step ahead(posemap::Step step, int columns) {
+        step.px += columns * step.dpx;
+        step.py += columns * step.dpy;
+        return step;
+    }
+    // The local index of B's column under `at` (-1: outside B's volume).
+    std::int64_t column_of(const posemap::Step& at) const {
+        const posemap::Column source = at.column();
+        const std::int64_t bx = source.x - moving_.x0, by = source.y - moving_.y0;
+        if (bx < 0 || by < 0 || bx >= moving_.nx || by >= moving_.ny) return -1;
+        return by * moving_.nx + bx;
+    }
+    void add_column(std::size_t c, std::int32_t gx, std::int32_t gy, RowRuns& row) const {
+        for (std::uint32_t e = sparse_.first[c]; e < sparse_.first[c + 1]; ++e) {
+            const SparseColumns::Entry& entry = sparse_.entries[e];
+            if (clips_) {
+                const auto& clip = (*clips_)[std::size_t(entry.word / moving_.zwords)];
+                if (gx < clip[0] || gx > clip[2] || gy < clip[1] || gy > clip[3]) continue;
+            }
+            row.add(entry.word, entry.bits);
+        }
+    }
+
+    const SparseColumns& sparse_;
+    const ColumnVolume& moving_;
+    const SlotClips* clips_;
+};
 
 }  // namespace
 
@@ -265,54 +356,34 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
                       std::max(source_box[2], moving.x0 + b[2]), std::max(source_box[3], moving.y0 + b[3])};
     }
     int longest = 0;
-    // Runs in visiting order (row by row), then counted into key order: within a key they stay in
-    // (y, x) order, as a stable sort by key would leave them. The scratch stays with the thread:
-    // this runs once per angle and test, and fresh buffers cost more in page faults than the cut.
+    // Runs in visiting order (row by row), counted into (pass, key) buckets as they come, then
+    // placed in bucket order: within a key they stay in (y, x) order, as a stable sort by key would
+    // leave them. The scratch stays with the thread: this runs once per angle and test, and fresh
+    // buffers cost more in page faults than the cut.
     thread_local std::vector<SliceRun> visited;
     thread_local std::unique_ptr<RowRuns> row_runs;
     thread_local std::vector<std::uint32_t> first;
     visited.clear();
     if (!row_runs || row_runs->words() != key_count / 32) row_runs = std::make_unique<RowRuns>(key_count / 32);
+    RunBuckets buckets(first, passes, zbits, key_count, key_base);
     RowRuns& row = *row_runs;
+    row.count_into(&buckets);
+    const RowCut cut(sparse, clipped ? &clips : nullptr);
     for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
-        RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
+        const RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
         if (stretch.first > stretch.last) continue;
         row.start_row(gy, key_base, visited, longest);
-        posemap::Step& at = stretch.at;
-        for (std::int32_t gx = stretch.first; gx <= stretch.last; ++gx, at.advance()) {
-            const posemap::Column source = at.column();
-            const std::int64_t bx = source.x - moving.x0, by = source.y - moving.y0;
-            if (bx >= 0 && by >= 0 && bx < moving.nx && by < moving.ny) {
-                const std::size_t c = std::size_t(by) * std::size_t(moving.nx) + std::size_t(bx);
-                for (std::uint32_t e = sparse.first[c]; e < sparse.first[c + 1]; ++e) {
-                    const SparseColumns::Entry& entry = sparse.entries[e];
-                    if (clipped) {
-                        const auto& clip = clips[std::size_t(entry.word / moving.zwords)];
-                        if (gx < clip[0] || gx > clip[2] || gy < clip[1] || gy > clip[3]) continue;
-                    }
-                    row.add(entry.word, entry.bits);
-                }
-            }
-            row.end_column(gx);
-        }
-        row.end_row(stretch.last);
+        cut.walk(gy, stretch, row);
     }
-    // Buckets (pass, key) in that order.
-    const auto bucket = [&](const SliceRun& run) {
-        const std::size_t key = std::size_t(run.key - key_base);
-        return passes == 1 ? key : std::size_t(map_pass_of_run(run.key, zbits, run.y, passes)) * key_count + key;
-    };
-    const std::size_t buckets = std::size_t(passes) * key_count;
-    first.assign(buckets + 1, 0u);
-    for (const SliceRun& run : visited) ++first[bucket(run) + 1];
-    for (std::size_t b = 0; b < buckets; ++b) first[b + 1] += first[b];
+    row.count_into(nullptr);
+    buckets.accumulate();
     const std::size_t base = out.size();
     if (pass_first) {
         pass_first->resize(std::size_t(passes) + 1);
-        for (int p = 0; p <= passes; ++p) (*pass_first)[std::size_t(p)] = base + first[std::size_t(p) * key_count];
+        for (int p = 0; p <= passes; ++p) (*pass_first)[std::size_t(p)] = base + buckets.first_of_pass(p);
     }
     out.resize(base + visited.size());
-    for (const SliceRun& run : visited) out[base + first[bucket(run)]++] = run;
+    for (const SliceRun& run : visited) out[base + buckets.place(run)] = run;
     return longest;
 }
 
