@@ -26,6 +26,12 @@ public:
     void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest);
     // Counts each emitted run into its bucket as it goes (a pass over the runs saved).
     void count_into(class RunBuckets* buckets) { buckets_ = buckets; }
+    // Emits only the runs `keep` keeps (null: all); counts every run cut.
+    void filter_by(const RunFilter* keep) {
+        keep_ = keep;
+        cut_ = 0;
+    }
+    std::size_t cut() const { return cut_; }
     // Column x's non-zero words (each word index at most once); columns not added are empty.
     void add(std::int32_t word, std::uint32_t bits) {
         current_[std::size_t(word)] = bits;
@@ -59,6 +65,8 @@ private:
     std::vector<SliceRun>* out_ = nullptr;
     int* longest_ = nullptr;
     class RunBuckets* buckets_ = nullptr;
+    const RunFilter* keep_ = nullptr;
+    std::size_t cut_ = 0;
 };
 
 void check_lattice(std::int64_t x0, std::int64_t y0, int nx, int ny) {
@@ -159,8 +167,11 @@ void RowRuns::start_row(std::int32_t y, std::int32_t key_base, std::vector<Slice
 
 void RowRuns::emit(std::int32_t bit, std::int32_t x_last) {
     const std::int32_t x_first = first_[std::size_t(bit)];
-    out_->push_back({y_, x_first, x_last, key_base_ + bit});
-    if (buckets_) buckets_->count(key_base_ + bit);
+    const SliceRun run{y_, x_first, x_last, key_base_ + bit};
+    ++cut_;
+    if (keep_ && !keep_->keep(run)) return;
+    out_->push_back(run);
+    if (buckets_) buckets_->count(run.key);
     *longest_ = std::max(*longest_, int(x_last - x_first + 1));
 }
 
@@ -324,7 +335,8 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
-                       std::vector<SliceRun>& out, int passes, std::vector<std::size_t>* pass_first) {
+                       std::vector<SliceRun>& out, int passes, std::vector<std::size_t>* pass_first, const RunFilter* keep,
+                       std::size_t* cut_count) {
     const ColumnVolume& moving = *sparse.volume;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
@@ -368,6 +380,7 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     RunBuckets buckets(first, passes, zbits, key_count, key_base);
     RowRuns& row = *row_runs;
     row.count_into(&buckets);
+    row.filter_by(keep);
     const RowCut cut(sparse, clipped ? &clips : nullptr);
     for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
         const RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
@@ -376,6 +389,8 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
         cut.walk(gy, stretch, row);
     }
     row.count_into(nullptr);
+    if (cut_count) *cut_count = row.cut();
+    row.filter_by(nullptr);
     buckets.accumulate();
     const std::size_t base = out.size();
     if (pass_first) {

@@ -71,14 +71,27 @@ using SlotClips = std::vector<std::array<std::int32_t, 4>>;
 // thick, such as a sword held level, put nearly all its pairs in one pass.)
 int map_pass_of(int z, int y, int passes);
 
+// Which cut runs are kept, decided as each run is cut (while it is in cache): most runs of a
+// later stage's map reach no pose in play, and storing, sorting and rereading them cost more than
+// the test.
+class RunFilter {
+public:
+    virtual bool keep(const SliceRun& run) const = 0;
+
+protected:
+    ~RunFilter() = default;
+};
+
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
 // mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs cut to
-// its box in `clips`. The appended runs are sorted by map pass (map_pass_of, of `passes`), then
-// key, then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first run
-// (and one more at the end). Returns the longest run appended.
+// its box in `clips`, and only those `keep` keeps (all when null; `cut`, where given, gets how many
+// were cut before it chose). The appended runs are sorted by map pass (map_pass_of, of `passes`),
+// then key, then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first
+// run (and one more at the end). Returns the longest run appended.
 int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
-                       std::vector<SliceRun>& out, int passes = 1, std::vector<std::size_t>* pass_first = nullptr);
+                       std::vector<SliceRun>& out, int passes = 1, std::vector<std::size_t>* pass_first = nullptr,
+                       const RunFilter* keep = nullptr, std::size_t* cut = nullptr);
 
 // Per slot of `slots`, the pulled columns that can meet that slot of `fixed` at an offset (i, j)
 // with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed column g + (i, j),

@@ -176,7 +176,7 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
     // at 5 mm.)
     const bool may_map = !optional_maps_[std::size_t(stage)].empty() && !survivors.empty();
     if (may_map)
-        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows);
+        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows, &candidates);
     if (may_map && maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates)) {
         Meets meets;
         for (MapTest& test : optional_maps_[std::size_t(stage)])

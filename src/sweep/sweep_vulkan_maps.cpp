@@ -136,20 +136,78 @@ private:
     std::array<const std::array<std::int32_t, 2>*, FixedRuns::kHullLevels> levels_{};
 };
 
+// A pulled run's key minus this is its fixed run's key: pulled keys start at each angle's block.
+std::int32_t key_base_of(const MapTest& test, int angle_in_batch) {
+    return std::int32_t(angle_in_batch) * test.runs.zbits * std::int32_t(test.slots.size());
+}
+
+// The rows j of the pose map where a pulled run of one angle can set a bit of a pose in play
+// (`open`: false, every pose of the box `rows` is): those where the fixed runs at its key lie and,
+// with poses in play, the band from the first to the last row whose fixed runs' hull, moved by
+// the run, holds one (a pair can only set bits inside it). A box test (2D prefix sums of the poses
+// in play) first drops most runs cheaply.
+class RunsInPlay : public RunFilter {
+public:
+    RunsInPlay(const PulledPruner& pruner, const FixedRuns& fixed, const Band& rows, bool open, std::int32_t key_base, std::int32_t i_first,
+               std::int32_t j_first, int width)
+        : pruner_(pruner), fixed_(fixed), rows_(rows), open_(open), key_base_(key_base), i_first_(i_first), j_first_(j_first),
+          stride_(std::size_t(width) + 1) {}
+
+    // The band [j0, j1] of rows (relative to j_first) the run reaches, or nothing; with
+    // `box_only`, the band of its key's box when that box, moved by the run, holds a pose in play
+    // (a cheap test that drops most runs; the passes' pruning narrows the rest).
+    std::optional<std::array<int, 2>> band(const SliceRun& run, bool box_only = false) const {
+        const std::int32_t fixed_key = run.key - key_base_;
+        const auto& box = fixed_.key_boxes[std::size_t(fixed_key)];
+        if (box[0] > box[1]) return std::nullopt;
+        // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
+        int j0 = std::max(rows_[0], box[2] - run.y - j_first_), j1 = std::min(rows_[1], box[3] - run.y - j_first_);
+        if (j0 > j1) return std::nullopt;
+        if (!open_) return std::array<int, 2>{j0, j1};
+        const int i0 = std::max(rows_[2], box[0] - run.x_last - i_first_), i1 = std::min(rows_[3], box[1] - run.x_first - i_first_);
+        if (i0 > i1 || count_in_play(pruner_, stride_, i0, i1, j0, j1) == 0) return std::nullopt;
+        if (box_only) return std::array<int, 2>{j0, j1};
+        // Only the band's ends matter: the first and the last row the run reaches.
+        const RunReach reach(pruner_, stride_, rows_, fixed_, std::size_t(fixed_key), std::ptrdiff_t(run.y) + j_first_ - box[2],
+                             run.x_first + i_first_, run.x_last + i_first_);
+        j0 = reach.first(j0, j1);
+        if (j0 < 0) return std::nullopt;
+        j1 = reach.last(j0, j1);
+        return std::array<int, 2>{j0, j1};
+    }
+    bool keep(const SliceRun& run) const override { return band(run, true).has_value(); }
+
+private:
+    const PulledPruner& pruner_;
+    const FixedRuns& fixed_;
+    const Band& rows_;
+    bool open_;
+    std::int32_t key_base_, i_first_, j_first_;
+    std::size_t stride_;
+};
+
 }  // namespace
 
-// Cuts one angle's pulled runs for a map test (sorted by map pass, then key; `pass_first` gets
-// each pass's first), each slot's cut to the columns that can reach that slot of the fixed volume
-// from the box of the poses in play. Returns the longest run.
-int SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
-                              std::vector<std::size_t>& pass_first) const {
+// Cuts one angle's pulled runs for a map test into `scratch` (sorted by map pass, then key), each
+// slot's cut to the columns that can reach that slot of the fixed volume from the box of the poses
+// in play, and, where only some poses are in play (`open`: per pose of the angle; null: all),
+// only the runs that reach one of them (RunsInPlay): the passes' pruning would drop the others.
+void SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, const std::uint8_t* open,
+                               AngleScratch& scratch) const {
+    scratch.by_pass.clear();
+    scratch.longest = 0;
+    scratch.cut = 0;
     if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) {
-        pass_first.assign(std::size_t(passes) + 1, out.size());
-        return 0;
+        scratch.pass_first.assign(std::size_t(passes) + 1, 0);
+        return;
     }
     const SlotClips clips = pulled_clips(*test.fixed, test.slots, range_.i_first + rows[2], range_.i_first + rows[3],
                                          range_.j_first + rows[0], range_.j_first + rows[1]);
-    return append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, out, passes, &pass_first);
+    thread_local PulledPruner pruner;
+    if (open) count_poses_in_play(pruner, open, rows, width_, height_);
+    const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
+    scratch.longest = append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, scratch.by_pass,
+                                         passes, &scratch.pass_first, open ? &in_play : nullptr, &scratch.cut);
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -164,27 +222,13 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
                                           std::span<const SliceRun> runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
     std::uint64_t pairs = 0;
     if (rows[0] > rows[1] || runs.empty()) return pairs;
-    const std::size_t stride = std::size_t(width_) + 1;
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
-    const std::int32_t key_base = std::int32_t(angle_in_batch) * test.runs.zbits * std::int32_t(test.slots.size());
+    const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     for (const SliceRun& run : runs) {
-        const std::int32_t fixed_key = run.key - key_base;
-        const auto& box = test.runs.key_boxes[std::size_t(fixed_key)];
-        if (box[0] > box[1]) continue;
-        // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
-        int j0 = std::max(rows[0], box[2] - run.y - range_.j_first), j1 = std::min(rows[1], box[3] - run.y - range_.j_first);
-        if (j0 > j1) continue;
-        if (open) {
-            const int i0 = std::max(rows[2], box[0] - run.x_last - range_.i_first), i1 = std::min(rows[3], box[1] - run.x_first - range_.i_first);
-            if (i0 > i1 || count_in_play(pruner, stride, i0, i1, j0, j1) == 0) continue;
-            // Only the band's ends matter: the first and the last row the run reaches.
-            const RunReach reach(pruner, stride, rows, test.runs, std::size_t(fixed_key), std::ptrdiff_t(run.y) + range_.j_first - box[2],
-                                 run.x_first + range_.i_first, run.x_last + range_.i_first);
-            j0 = reach.first(j0, j1);
-            if (j0 < 0) continue;
-            j1 = reach.last(j0, j1);
-        }
-        const auto [key_first, key_count] = test.runs.by_key[std::size_t(fixed_key)];
+        const auto band = in_play.band(run);
+        if (!band) continue;
+        const auto [j0, j1] = *band;
+        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base_of(test, angle_in_batch))];
         const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
         const auto from = std::lower_bound(key_begin, key_end, run.y + range_.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
         const auto to = std::upper_bound(from, key_end, run.y + range_.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
@@ -200,13 +244,11 @@ int SweepRun::map_passes(const MapTest& test) const {
     return test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
 }
 
-void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows) const {
+void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const {
     if (test.angles.size() < std::size_t(batch_angles)) test.angles.resize(std::size_t(batch_angles));
     const int passes = map_passes(test);
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        AngleScratch& scratch = test.angles[a];
-        scratch.by_pass.clear();
-        scratch.longest = cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, scratch.by_pass, scratch.pass_first);
+        cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, open ? open->data() + a * per_angle_ : nullptr, test.angles[a]);
     });
 }
 
@@ -228,7 +270,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     Rows open_rows = rows;  // per angle: the box of the poses in play
     // Host work per angle, on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
-    if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows);
+    if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows, nullptr);
     int longest = 0;
     for (int a = 0; a < batch_angles; ++a) longest = std::max(longest, test.angles[std::size_t(a)].longest);
     const int maps = test.maps_per_angle();
@@ -388,7 +430,7 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int batch_angles,
     std::vector<PulledRun> pruned;
     for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
         const std::vector<SliceRun>& runs = test.angles[std::size_t(sample)].by_pass;
-        cut += runs.size();
+        cut += test.angles[std::size_t(sample)].cut;
         pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
     }
     // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the

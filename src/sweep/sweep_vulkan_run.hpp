@@ -98,7 +98,8 @@ struct OverlapTest {
 struct AngleScratch {
     std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
     std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
-    int longest = 0;                          // voxels in the longest run cut
+    int longest = 0;                          // voxels in the longest run kept
+    std::size_t cut = 0;                      // runs cut, kept or not (what the cost model prices)
     std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
 };
 
@@ -229,12 +230,13 @@ private:
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
-    int cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, std::vector<SliceRun>& out,
-                        std::vector<std::size_t>& pass_first) const;
+    void cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, const std::uint8_t* open,
+                         AngleScratch& scratch) const;
     std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch, std::span<const SliceRun> runs,
                                     const std::uint8_t* open, std::vector<PulledRun>& out) const;
-    // Cuts the pulled runs of every angle of the batch into test.angles, on all cores.
-    void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows) const;
+    // Cuts the pulled runs of every angle of the batch into test.angles, on all cores; with
+    // `open` (per pose of the batch), only those that reach a pose in play.
+    void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const;
     int map_passes(const MapTest& test) const;
     // Decides `test` for every pose of the batch (implicit order) with an overlap map (`runs_cut`:
     // test.angles holds the batch's runs already).
