@@ -141,6 +141,15 @@ std::int32_t key_base_of(const MapTest& test, int angle_in_batch) {
     return std::int32_t(angle_in_batch) * test.runs.zbits * std::int32_t(test.slots.size());
 }
 
+// The fixed runs a pulled run's key holds, summed over `runs` (of angle `angle_in_batch`): at
+// least the pairs their pruned runs visit, since a pruned run pairs only with rows of its key.
+std::uint64_t pairs_at_most(const MapTest& test, int angle_in_batch, std::span<const SliceRun> runs) {
+    const std::int32_t key_base = key_base_of(test, angle_in_batch);
+    std::uint64_t pairs = 0;
+    for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs.by_key[std::size_t(run.key - key_base)][1]);
+    return pairs;
+}
+
 // The rows j of the pose map where a pulled run of one angle can set a bit of a pose in play
 // (`open`: false, every pose of the box `rows` is): those where the fixed runs at its key lie and,
 // with poses in play, the band from the first to the last row whose fixed runs' hull, moved by
@@ -425,18 +434,28 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int batch_angles,
     int sample = 0, angles_in_play = 0;
     for (int a = batch_angles - 1; a >= 0; --a)
         if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
-    std::uint64_t pairs = 0, cut = 0;
-    PulledPruner pruner;
-    std::vector<PulledRun> pruned;
-    for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
-        const std::vector<SliceRun>& runs = test.angles[std::size_t(sample)].by_pass;
-        cut += test.angles[std::size_t(sample)].cut;
-        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, runs, candidates.data() + std::size_t(sample) * per_angle_, pruned);
-    }
     // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the
     // option prices one of kPoseTestIterations loop steps.
     const double pose_cost = double(pose_count) * tools_.options.pose_test_pairs * pose_iterations_[std::size_t(stage)] / kPoseTestIterations;
-    return pose_cost > double(pairs + cut * kCutPairs) * double(angles_in_play);
+    const auto maps_cost = [&](std::uint64_t pairs, std::uint64_t cut) { return double(pairs + cut * kCutPairs) * double(angles_in_play); };
+    std::uint64_t bound = 0, cut = 0;
+    for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
+        const AngleScratch& scratch = test.angles[std::size_t(sample)];
+        cut += scratch.cut;
+        bound += pairs_at_most(test, sample, scratch.by_pass);
+    }
+    // The pairs the maps visit are at most the bound: when that already pays off, so do they (the
+    // exact count, which prunes the sample's runs on one core, is needed only near the balance).
+    if (pose_cost > maps_cost(bound, cut)) return true;
+    std::uint64_t pairs = 0;
+    thread_local PulledPruner pruner;
+    thread_local std::vector<PulledRun> pruned;
+    for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
+        pruned.clear();
+        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, test.angles[std::size_t(sample)].by_pass,
+                                   candidates.data() + std::size_t(sample) * per_angle_, pruned);
+    }
+    return pose_cost > maps_cost(pairs, cut);
 }
 
 }  // namespace amhv::gpu::sweep_detail
