@@ -20,7 +20,7 @@ ColumnVolume empty_like(const VoxelGrid& g, const ZFrame& z, int slots) {
     c.ny = g.dims[1];
     c.slots = slots;
     c.zwords = z.words;
-    c.bits.assign(std::size_t(c.nx) * c.ny * c.column_words(), 0u);
+    c.bits.resize(std::size_t(c.nx) * c.ny * c.column_words());  // zero, untouched
     return c;
 }
 
