@@ -7,6 +7,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "src/sweep/solution_group.hpp"
 
 namespace amhv {
@@ -147,19 +148,27 @@ void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x
 }
 
 void SweepResult::count() {
-    // One pass, four tallies side by side: a run of equal outcomes (most poses fail contact in
-    // long runs) would otherwise wait on one counter per pose, and a branch per pose mispredicts.
-    std::array<std::array<std::uint64_t, 8>, 4> tallies{};
-    const std::size_t size = outcomes.size(), whole = size / 4 * 4;
-    for (std::size_t p = 0; p < whole; p += 4)
-        for (std::size_t t = 0; t < 4; ++t) ++tallies[t][std::size_t(outcomes[p + t]) & 7u];
-    for (std::size_t p = whole; p < size; ++p) ++tallies[0][std::size_t(outcomes[p]) & 7u];
+    // Chunks on every core, each one pass with four tallies side by side: a run of equal outcomes
+    // (most poses fail contact in long runs) would otherwise wait on one counter per pose, and a
+    // branch per pose mispredicts. Integer sums, so the totals do not depend on the split.
+    using Tallies = std::array<std::array<std::uint64_t, 8>, 4>;
+    constexpr std::size_t kChunk = std::size_t(1) << 22;
+    const std::size_t size = outcomes.size(), chunks = (size + kChunk - 1) / kChunk;
+    std::vector<Tallies> per_chunk(chunks, Tallies{});
+    parallel_for(chunks, [&](std::size_t c) {
+        Tallies& tallies = per_chunk[c];
+        const std::size_t first = c * kChunk, end = std::min(size, first + kChunk), whole = first + (end - first) / 4 * 4;
+        for (std::size_t p = first; p < whole; p += 4)
+            for (std::size_t t = 0; t < 4; ++t) ++tallies[t][std::size_t(outcomes[p + t]) & 7u];
+        for (std::size_t p = whole; p < end; ++p) ++tallies[0][std::size_t(outcomes[p]) & 7u];
+    });
     rejected = {};
     solutions = 0;
-    for (const auto& tally : tallies) {
-        for (std::size_t o = 0; o < rejected.size(); ++o) rejected[o] += tally[o];
-        solutions += tally[std::size_t(PoseOutcome::Solution)];
-    }
+    for (const Tallies& tallies : per_chunk)
+        for (const auto& tally : tallies) {
+            for (std::size_t o = 0; o < rejected.size(); ++o) rejected[o] += tally[o];
+            solutions += tally[std::size_t(PoseOutcome::Solution)];
+        }
 }
 
 std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected) {

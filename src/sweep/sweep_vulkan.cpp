@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
 #include "src/sweep/sweep_vulkan_run.hpp"
 #include "shaders/sweep_map.spv.h"
@@ -94,7 +95,23 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
         if (!(tools_.options.maps && stage == 1 && type_.lateral_pair())) survivors = later_stage(stage, std::move(survivors), angle_first, batch_angles);
         lap(stage);
     }
-    for (const auto& p : survivors) result_.outcomes[outcome_index(p)] = PoseOutcome::Solution;
+    const std::vector<std::size_t> starts = angle_starts(survivors, angle_first, batch_angles);
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        for (std::size_t p = starts[a]; p < starts[a + 1]; ++p) result_.outcomes[outcome_index(survivors[p])] = PoseOutcome::Solution;
+    });
+}
+
+// Where each angle's poses start in `poses` (sorted by angle, as every stage keeps them), and the
+// end: per-angle work on them runs on all cores, each angle writing only its own poses' entries.
+std::vector<std::size_t> SweepRun::angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const {
+    std::vector<std::size_t> starts(std::size_t(batch_angles) + 1, poses.size());
+    std::size_t p = 0;
+    for (int a = 0; a < batch_angles; ++a) {
+        starts[std::size_t(a)] = p;
+        while (p < poses.size() && poses[p][0] == angle_first + a) ++p;
+    }
+    if (p != poses.size()) fail("sweep", "internal: a batch's poses are not in angle order");
+    return starts;
 }
 
 // The box of the set flags of one angle's poses (row by row, `width_` to a row; empty: first > last).
@@ -114,19 +131,40 @@ std::vector<Pose> SweepRun::contact_and_dictionary_by_maps(int angle_first, int 
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) { contact_rows[a] = box_of_flags(contact.data() + a * per_angle_); });
     Meets dictionary;
     for (MapTest& test : required_maps_[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
-    // Row by row, so a pose's offsets come without dividing its index.
-    std::vector<Pose> survivors;
+    // Row by row, so a pose's offsets come without dividing its index; angles on all cores: first
+    // each angle's outcomes and survivor count, then its survivors in place (angle order).
     PoseOutcome* outcomes = result_.outcomes.data() + std::size_t(angle_first) * std::size_t(per_angle_);
-    for (int a = 0; a < batch_angles; ++a)
-        for (int j = contact_rows[std::size_t(a)][0]; j <= contact_rows[std::size_t(a)][1]; ++j) {
-            const std::size_t row = std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
-            for (int i = contact_rows[std::size_t(a)][2]; i <= contact_rows[std::size_t(a)][3]; ++i) {
-                if (!contact[row + std::size_t(i)]) continue;
-                ++tools_.stats.poses_per_stage[1];
-                if (passes_all(dictionary, row + std::size_t(i))) survivors.push_back({angle_first + a, range_.i_first + i, range_.j_first + j, 0});
-                else outcomes[row + std::size_t(i)] = PoseOutcome::FailsDictionary;
-            }
+    const auto for_each_contact = [&](std::size_t a, const auto& visit) {
+        const Band& band = contact_rows[a];
+        for (int j = band[0]; j <= band[1]; ++j) {
+            const std::size_t row = a * per_angle_ + std::size_t(j) * std::size_t(width_);
+            for (int i = band[2]; i <= band[3]; ++i)
+                if (contact[row + std::size_t(i)]) visit(row + std::size_t(i), i, j);
         }
+    };
+    std::vector<std::size_t> kept(std::size_t(batch_angles) + 1, 0);
+    std::vector<std::uint64_t> in_contact(static_cast<std::size_t>(batch_angles), 0);
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        std::uint64_t contacts = 0, passed = 0;  // local: neighbouring angles' counters share a cache line
+        for_each_contact(a, [&](std::size_t pose, int, int) {
+            ++contacts;
+            if (passes_all(dictionary, pose)) ++passed;
+            else outcomes[pose] = PoseOutcome::FailsDictionary;
+        });
+        in_contact[a] = contacts;
+        kept[a + 1] = passed;
+    });
+    for (int a = 0; a < batch_angles; ++a) {
+        kept[std::size_t(a) + 1] += kept[std::size_t(a)];
+        tools_.stats.poses_per_stage[1] += in_contact[std::size_t(a)];
+    }
+    std::vector<Pose> survivors(kept.back());
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        std::size_t next = kept[a];
+        for_each_contact(a, [&](std::size_t pose, int i, int j) {
+            if (outcomes[pose] != PoseOutcome::FailsDictionary) survivors[next++] = {angle_first + int(a), range_.i_first + i, range_.j_first + j, 0};
+        });
+    });
     return survivors;
 }
 
@@ -164,13 +202,23 @@ std::vector<Pose> SweepRun::contact_pose_by_pose(int angle_first, int batch_angl
 // else pose by pose. Returns the poses that pass; the rest get this stage's outcome.
 std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles) {
     const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
+    const std::vector<std::size_t> starts = angle_starts(survivors, angle_first, batch_angles);
+    // Per angle, on all cores: each writes its own band and its own poses' entries.
+    const auto for_each_angle = [&](const std::function<void(std::size_t a, std::size_t first, std::size_t end)>& work) {
+        parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(a, starts[a], starts[a + 1]); });
+    };
     std::vector<std::uint8_t> passes;
     Rows rows(std::size_t(batch_angles), {height_, -1, width_, -1});
     std::vector<std::uint8_t> candidates(batch_poses, 0);
-    for (const Pose& q : survivors) {
-        widen(rows[std::size_t(q[0] - angle_first)], q[2] - range_.j_first, q[1] - range_.i_first);
-        candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
-    }
+    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
+        Band band = rows[a];  // local: neighbouring angles' bands share a cache line
+        for (std::size_t p = first; p < end; ++p) {
+            const Pose& q = survivors[p];
+            widen(band, q[2] - range_.j_first, q[1] - range_.i_first);
+            candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
+        }
+        rows[a] = band;
+    });
     // Every angle's runs are cut (on all cores) before the cost model reads one angle's: the maps
     // then use them as they are. (Cutting the sample alone, on one core, cost as much as the maps
     // at 5 mm.)
@@ -183,17 +231,32 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
             meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates, true));
         passes.resize(survivors.size());
         // The maps hold the batch's poses in outcome order, starting at angle_first.
-        for (std::size_t p = 0; p < survivors.size(); ++p)
-            passes[p] = passes_all(meets, outcome_index(survivors[p]) - std::size_t(angle_first) * std::size_t(per_angle_));
+        for_each_angle([&](std::size_t, std::size_t first, std::size_t end) {
+            for (std::size_t p = first; p < end; ++p)
+                passes[p] = passes_all(meets, outcome_index(survivors[p]) - std::size_t(angle_first) * std::size_t(per_angle_));
+        });
     } else {
         passes = decide(stage, survivors, angle_first, batch_angles);
     }
-    std::vector<Pose> next;
-    for (std::size_t p = 0; p < survivors.size(); ++p) {
-        if (passes[p]) next.push_back(survivors[p]);
-        else result_.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
+    // Each angle's failures get this stage's outcome, then its passes move down in place (angle order).
+    std::vector<std::size_t> kept(std::size_t(batch_angles) + 1, 0);
+    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
+        std::size_t passed = 0;
+        for (std::size_t p = first; p < end; ++p) {
+            if (passes[p]) ++passed;
+            else result_.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
+        }
+        kept[a + 1] = passed;
+    });
+    for (int a = 0; a < batch_angles; ++a) kept[std::size_t(a) + 1] += kept[std::size_t(a)];
+    // Angle a's passes land at or before its first pose, so angles move in order, each in place.
+    for (int a = 0; a < batch_angles; ++a) {
+        std::size_t next = kept[std::size_t(a)];
+        for (std::size_t p = starts[std::size_t(a)]; p < starts[std::size_t(a) + 1]; ++p)
+            if (passes[p]) survivors[next++] = survivors[p];
     }
-    return next;
+    survivors.resize(kept.back());
+    return survivors;
 }
 
 }  // namespace sweep_detail

@@ -256,6 +256,7 @@ private:
     std::vector<Pose> contact_and_dictionary_by_maps(int angle_first, int batch_angles);
     std::vector<Pose> contact_pose_by_pose(int angle_first, int batch_angles);
     std::vector<Pose> later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles);
+    std::vector<std::size_t> angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const;
 
     const SweepProblem& problem_;
     SweepTools tools_;
