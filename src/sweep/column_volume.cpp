@@ -25,20 +25,31 @@ ColumnVolume empty_like(const VoxelGrid& g, const ZFrame& z, int slots) {
 }
 
 // Calls visit(column words, bit word, bit mask, voxel index) for every occupied voxel of the grid,
-// in memory order of the volume (z, then y, then x), so the volume is read contiguously.
+// in memory order of the volume (z, then y, then x). The occupied voxels are found first on every
+// core (occupied_by_slice skips empty stretches eight voxels at a time).
 template <typename Visit>
 void for_each_occupied_voxel(const Amhv& volume, const ZFrame& z, ColumnVolume& c, Visit visit) {
     const VoxelGrid& g = volume.grid();
     const std::int64_t z0 = g.lattice_origin()[2] - z.z_first;
+    const std::size_t slice_voxels = std::size_t(g.dims[0]) * std::size_t(g.dims[1]);
+    const std::vector<std::vector<std::uint32_t>> slices = occupied_by_slice(volume);
     for (int vz = 0; vz < g.dims[2]; ++vz) {
         const std::int64_t bit = z0 + vz;
         const int word = int(bit / 32);
         const std::uint32_t mask = 1u << (bit % 32);
-        for (int y = 0; y < g.dims[1]; ++y) {
-            const std::size_t row = g.index(0, y, vz);
-            for (int x = 0; x < g.dims[0]; ++x)
-                if (volume.any(row + std::size_t(x))) visit(c.column(x, y), word, mask, row + std::size_t(x));
+        for (const std::uint32_t in_slice : slices[std::size_t(vz)]) {
+            const int x = int(in_slice % std::uint32_t(g.dims[0])), y = int(in_slice / std::uint32_t(g.dims[0]));
+            visit(c.column(x, y), word, mask, std::size_t(vz) * slice_voxels + in_slice);
         }
+    }
+}
+
+// Sets bits first..last (first <= last) of the words at `words`, a word at a time.
+void set_bits(std::uint32_t* words, std::int64_t first, std::int64_t last) {
+    const std::int64_t w_first = first / 32, w_last = last / 32;
+    for (std::int64_t w = w_first; w <= w_last; ++w) {
+        const int from = w == w_first ? int(first % 32) : 0, to = w == w_last ? int(last % 32) : 31;
+        words[w] |= (0xffffffffu >> (31 - to)) & (0xffffffffu << from);
     }
 }
 
@@ -58,7 +69,7 @@ ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::v
     return {first, int((last - first) / 32 + 1)};
 }
 
-void ColumnVolume::finish() {
+void ColumnVolume::finish(bool slots_within_union) {
     rows.assign(std::size_t(ny), {1, 0});
     x_first = y_first = word_first = std::numeric_limits<int>::max();
     x_last = y_last = word_last = std::numeric_limits<int>::min();
@@ -83,6 +94,10 @@ void ColumnVolume::finish() {
     slot_boxes.assign(std::size_t(slots), {1, 1, 0, 0});
     for (int y = 0; y < ny; ++y)
         for (int x = 0; x < nx; ++x) {
+            // Where every slot lies within slot 0, a column outside the union's rows holds nothing
+            // (and is never read: most of a volume's pages stay untouched).
+            const auto& row = rows[std::size_t(y)];
+            if (slots_within_union && (x < row[0] || x > row[1])) continue;
             const std::uint32_t* c = column(x, y);
             for (int slot = 0; slot < slots; ++slot) {
                 const std::uint32_t* words = c + std::size_t(slot) * zwords;
@@ -107,7 +122,7 @@ ColumnVolume columns_of(const Amhv& volume, const ZFrame& z, bool with_frames) {
                 column[(1 + std::size_t(t)) * slot_words + word] |= bit;
             }
     });
-    c.finish();
+    c.finish(true);
     return c;
 }
 
@@ -121,13 +136,12 @@ ColumnVolume columns_of(const ConeVolume& cone, const ZFrame& z, bool with_frame
             std::uint32_t* column = c.column(x, y);
             for (int t = 0; t < cone.frames; ++t) {
                 const auto span = cone.span(x, y, t);
-                for (std::int64_t bit = z0 + span[0]; bit <= z0 + span[1]; ++bit) {
-                    column[bit / 32] |= 1u << (bit % 32);
-                    if (per_frame) column[(1 + std::size_t(t)) * slot_words + std::size_t(bit / 32)] |= 1u << (bit % 32);
-                }
+                if (span[0] > span[1]) continue;
+                set_bits(column, z0 + span[0], z0 + span[1]);
+                if (per_frame) set_bits(column + (1 + std::size_t(t)) * slot_words, z0 + span[0], z0 + span[1]);
             }
         }
-    c.finish();
+    c.finish(true);
     return c;
 }
 
@@ -150,7 +164,7 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
         const int last = started_by ? frames - 1 : volume.t_end(v);
         for (int t = first; t <= last; ++t) column[(1 + std::size_t(t)) * slot_words + word] |= bit;
     });
-    c.finish();
+    c.finish(true);
     return c;
 }
 

@@ -74,7 +74,9 @@ struct ColumnVolume {
     std::uint32_t* column(int x, int y) { return bits.data() + (std::size_t(y) * nx + x) * column_words(); }
     const std::uint32_t* column(int x, int y) const { return bits.data() + (std::size_t(y) * nx + x) * column_words(); }
     bool empty() const { return x_first > x_last; }
-    void finish();  // computes rows and the bounding box from the union slot
+    // Computes rows and the bounding box from the union slot, and each slot's box; with
+    // `slots_within_union` (every slot's bits are also slot 0's), only the union's columns are read.
+    void finish(bool slots_within_union = false);
 };
 
 // Union (and, with `with_frames`, every frame) of `volume`.
