@@ -150,6 +150,25 @@ std::uint64_t pairs_at_most(const MapTest& test, int angle_in_batch, std::span<c
     return pairs;
 }
 
+// The box of poses (within `rows`, relative to the range's first offsets `i_first`, `j_first`)
+// that some run of `runs` can reach: the union of their keys' boxes moved by the runs
+// (RunsInPlay::band tests nothing outside a run's own). Empty: first > last.
+Band reach_of(const MapTest& test, int angle_in_batch, std::span<const SliceRun> runs, const Band& rows, std::int32_t i_first,
+              std::int32_t j_first) {
+    const std::int32_t key_base = key_base_of(test, angle_in_batch);
+    Band reach{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max(),
+               std::numeric_limits<std::int32_t>::min()};
+    for (const SliceRun& run : runs) {
+        const auto& box = test.runs.key_boxes[std::size_t(run.key - key_base)];
+        if (box[0] > box[1]) continue;
+        reach = {std::min(reach[0], box[2] - run.y), std::max(reach[1], box[3] - run.y), std::min(reach[2], box[0] - run.x_last),
+                 std::max(reach[3], box[1] - run.x_first)};
+    }
+    if (reach[0] > reach[1]) return {1, 0, 1, 0};
+    return {std::max(rows[0], reach[0] - j_first), std::min(rows[1], reach[1] - j_first), std::max(rows[2], reach[2] - i_first),
+            std::min(rows[3], reach[3] - i_first)};
+}
+
 // The rows j of the pose map where a pulled run of one angle can set a bit of a pose in play
 // (`open`: false, every pose of the box `rows` is): those where the fixed runs at its key lie and,
 // with poses in play, the band from the first to the last row whose fixed runs' hull, moved by
@@ -231,7 +250,12 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
                                           std::span<const SliceRun> runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
     std::uint64_t pairs = 0;
     if (rows[0] > rows[1] || runs.empty()) return pairs;
-    if (open) count_poses_in_play(pruner, open, rows, width_, height_);
+    if (open) {
+        // Every test below stays within some run's reach: the poses in play are counted there only.
+        const Band reach = reach_of(test, angle_in_batch, runs, rows, range_.i_first, range_.j_first);
+        if (reach[0] > reach[1] || reach[2] > reach[3]) return pairs;
+        count_poses_in_play(pruner, open, reach, width_, height_);
+    }
     const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     for (const SliceRun& run : runs) {
         const auto band = in_play.band(run);
