@@ -7,11 +7,10 @@
 #include <array>
 #include <cstdint>
 #include <functional>
-#include <cstdlib>
-#include <new>
 #include <vector>
 
 #include "src/core/amhv.hpp"
+#include "src/core/process.hpp"
 #include "src/sweep/pose_map.hpp"
 #include "src/sweep/problem.hpp"
 
@@ -26,32 +25,6 @@ struct ZFrame {
 ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised = {}, int lift = 0);
 // The same frame as seen from a volume raised by `lift` voxels: its voxel z lands on bit z + lift.
 inline ZFrame raised_frame(const ZFrame& z, int lift) { return {z.z_first - lift, z.words}; }
-
-// Zeroed memory on small pages for column volumes: a volume's columns hold every frame's slot, and
-// a frame fills a small part of them, so most pages are never written. calloc (no huge-page
-// advice) leaves those on the kernel's zero page instead of clearing them (at 5 mm a segment's
-// volumes were about 1 GB, mostly zeros, cleared twice: by the kernel and by the fill).
-template <typename T>
-struct CallocAllocator {
-    using value_type = T;
-    CallocAllocator() = default;
-    template <typename U>
-    CallocAllocator(const CallocAllocator<U>&) {}
-    T* allocate(std::size_t n) {
-        if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
-        if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
-        throw std::bad_alloc();
-    }
-    void deallocate(T* p, std::size_t) { std::free(p); }
-    template <typename U>
-    void construct(U*) {}  // value-initialised: already zero
-    template <typename U, typename... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-    template <typename U>
-    bool operator==(const CallocAllocator<U>&) const { return true; }
-};
 
 struct ColumnVolume {
     std::int64_t x0 = 0, y0 = 0;  // global lattice index of column (0, 0)

@@ -12,6 +12,7 @@
 
 #include "src/core/amhv.hpp"
 #include "src/core/angles.hpp"
+#include "src/core/process.hpp"
 #include "src/sweep/interaction.hpp"
 #include "src/sweep/pose_map.hpp"
 
@@ -122,7 +123,7 @@ struct Solution {
 struct SweepResult {
     PoseRange range;
     // One outcome per pose, [l - z_first][k][j - j_first][i - i_first].
-    std::vector<PoseOutcome> outcomes;
+    std::vector<PoseOutcome, CallocAllocator<PoseOutcome>> outcomes;  // FailsContact (0) where never written
     std::array<std::uint64_t, 4> rejected{};  // contact, dictionary, fidelity, visibility
     std::uint64_t solutions = 0;
 

@@ -36,7 +36,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     }
     SweepResult result;
     result.range = r;
-    result.outcomes.resize(r.size(), PoseOutcome::FailsContact);
+    result.outcomes.resize(r.size());  // FailsContact (zero), on pages untouched until written
     for (int level = r.z_first; level <= r.z_last; ++level) {
         const int swept = problem.angle_end() - problem.first_angle, done_before = (level - r.z_first) * swept;
         std::function<void(int, int)> level_progress;
@@ -54,7 +54,8 @@ namespace sweep_detail {
 
 SweepResult SweepRun::run() {
     result_.range = range_;
-    result_.outcomes.assign(range_.per_level(), PoseOutcome::FailsContact);
+    static_assert(PoseOutcome::FailsContact == PoseOutcome{}, "outcomes start as zero pages");
+    result_.outcomes.resize(range_.per_level());  // FailsContact, on pages untouched until written
     if (range_.size() == 0) {
         result_.count();
         return result_;
