@@ -13,6 +13,7 @@
 
 #include "src/core/budget.hpp"
 #include "src/core/grid.hpp"
+#include "src/core/process.hpp"
 
 namespace amhv {
 
@@ -32,30 +33,17 @@ void free_zeroed(void* block, std::size_t bytes);
 // Frees the block kept for the next volume (see detail::allocate_zeroed), if any.
 void release_recycled_volume();
 
-// Allocates zeroed memory (detail::allocate_zeroed) and leaves new elements as they are (zero).
-// Only for a vector sized once from empty (the aMHV's mask): growing back after a shrink would keep
-// the old values.
-template <typename T>
-struct ZeroedAllocator {
-    using value_type = T;
-    ZeroedAllocator() = default;
-    template <typename U>
-    ZeroedAllocator(const ZeroedAllocator<U>&) {}
-    T* allocate(std::size_t n) {
-        if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
-        if (void* p = detail::allocate_zeroed(n * sizeof(T))) return static_cast<T*>(p);
-        throw std::bad_alloc();
-    }
-    void deallocate(T* p, std::size_t n) { detail::free_zeroed(p, n * sizeof(T)); }
-    template <typename U>
-    void construct(U*) {}  // value-initialised: already zero
-    template <typename U, typename... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-    template <typename U>
-    bool operator==(const ZeroedAllocator<U>&) const { return true; }
+namespace detail {
+struct RecycledVolumeBlocks {
+    static void* allocate(std::size_t bytes) { return allocate_zeroed(bytes); }
+    static void free(void* block, std::size_t bytes) { free_zeroed(block, bytes); }
 };
+}  // namespace detail
+
+// Zeroed memory from detail::allocate_zeroed (the aMHV's mask), value-initialised elements left as
+// they are (ZeroFilledAllocator).
+template <typename T>
+using ZeroedAllocator = ZeroFilledAllocator<T, detail::RecycledVolumeBlocks>;
 
 class Amhv {
 public:

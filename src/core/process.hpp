@@ -27,24 +27,22 @@ void release_freed_memory();
 // zeroed allocator gets this advice.
 void advise_huge_pages(void* block, std::size_t bytes);
 
-// Zeroed memory on small pages, for large arrays that are mostly zero and written sparsely: a
-// column volume holds every frame's slot per column and a frame fills a small part of them; a
-// sweep's outcomes are FailsContact (0) for most poses. calloc (no huge-page advice) leaves the
-// pages never written on the kernel's zero page instead of clearing them (at 5 mm a segment's
-// column volumes were about 1 GB, cleared twice: by the kernel and by the fill). Value-initialised
-// elements are left as they are (zero): only for vectors sized once from empty.
-template <typename T>
-struct CallocAllocator {
+// A vector allocator over zeroed memory that leaves value-initialised elements as they are (zero):
+// a vector sized from empty costs nothing until its pages are written. `Source` gives the memory
+// (static allocate(bytes), zeroed, and free(block, bytes)). Only for vectors sized once from
+// empty: growing back after a shrink would keep the old values.
+template <typename T, typename Source>
+struct ZeroFilledAllocator {
     using value_type = T;
-    CallocAllocator() = default;
+    ZeroFilledAllocator() = default;
     template <typename U>
-    CallocAllocator(const CallocAllocator<U>&) {}
+    ZeroFilledAllocator(const ZeroFilledAllocator<U, Source>&) {}
     T* allocate(std::size_t n) {
         if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
-        if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
+        if (void* p = Source::allocate(n * sizeof(T))) return static_cast<T*>(p);
         throw std::bad_alloc();
     }
-    void deallocate(T* p, std::size_t) { std::free(p); }
+    void deallocate(T* p, std::size_t n) { Source::free(p, n * sizeof(T)); }
     template <typename U>
     void construct(U*) {}  // value-initialised: already zero
     template <typename U, typename... Args>
@@ -52,8 +50,20 @@ struct CallocAllocator {
         ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
     }
     template <typename U>
-    bool operator==(const CallocAllocator<U>&) const { return true; }
+    bool operator==(const ZeroFilledAllocator<U, Source>&) const { return true; }
 };
+
+// Zeroed memory on small pages, for large arrays that are mostly zero and written sparsely: a
+// column volume holds every frame's slot per column and a frame fills a small part of them; a
+// sweep's outcomes are FailsContact (0) for most poses. calloc (no huge-page advice) leaves the
+// pages never written on the kernel's zero page instead of clearing them (at 5 mm a segment's
+// column volumes were about 1 GB, cleared twice: by the kernel and by the fill).
+struct SmallZeroPages {
+    static void* allocate(std::size_t bytes) { return std::calloc(bytes, 1); }
+    static void free(void* block, std::size_t) { std::free(block); }
+};
+template <typename T>
+using CallocAllocator = ZeroFilledAllocator<T, SmallZeroPages>;
 
 // Blocks from this size on get advise_huge_pages.
 inline constexpr std::size_t kHugePageBytes = std::size_t(2) << 20;

@@ -25,7 +25,7 @@ public:
 
     void start_row(std::int32_t y, std::int32_t key_base, std::vector<SliceRun>& out, int& longest);
     // Counts each emitted run into its bucket as it goes (a pass over the runs saved).
-    void count_into(class RunBuckets* buckets) { buckets_ = buckets; }
+    void count_into(RunBuckets* buckets) { buckets_ = buckets; }
     // Emits only the runs `keep` keeps (null: all); counts every run cut.
     void filter_by(const RunFilter* keep) {
         keep_ = keep;
@@ -64,7 +64,7 @@ private:
     std::int32_t y_ = 0, key_base_ = 0;
     std::vector<SliceRun>* out_ = nullptr;
     int* longest_ = nullptr;
-    class RunBuckets* buckets_ = nullptr;
+    RunBuckets* buckets_ = nullptr;
     const RunFilter* keep_ = nullptr;
     std::size_t cut_ = 0;
 };
@@ -137,18 +137,19 @@ public:
         first_.assign(std::size_t(passes) * key_count + 1, 0u);
     }
     std::size_t buckets() const { return first_.size() - 1; }
-    std::size_t of(const SliceRun& run) const {
-        const std::size_t key = std::size_t(run.key - key_base_);
-        return passes_ == 1 ? key : std::size_t(map_pass_of_run(run.key, zbits_, run.y, passes_)) * key_count_ + key;
+    // The bucket of a run with key `key` on row y.
+    std::size_t of(std::int32_t key, std::int32_t y) const {
+        const std::size_t in_angle = std::size_t(key - key_base_);
+        return passes_ == 1 ? in_angle : std::size_t(map_pass_of_run(key, zbits_, y, passes_)) * key_count_ + in_angle;
     }
     void start_row(std::int32_t y) { y_ = y; }
-    void count(std::int32_t key) { ++first_[of(SliceRun{y_, 0, 0, key}) + 1]; }
+    void count(std::int32_t key) { ++first_[of(key, y_) + 1]; }
     // After the counts: each bucket's first place (relative to the output's base).
     void accumulate() {
         for (std::size_t b = 0; b < buckets(); ++b) first_[b + 1] += first_[b];
     }
     std::uint32_t first_of_pass(int pass) const { return first_[std::size_t(pass) * key_count_]; }
-    std::uint32_t place(const SliceRun& run) { return first_[of(run)]++; }
+    std::uint32_t place(const SliceRun& run) { return first_[of(run.key, run.y)]++; }
 
 private:
     std::vector<std::uint32_t>& first_;

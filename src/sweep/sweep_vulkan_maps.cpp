@@ -256,12 +256,13 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
         if (reach[0] > reach[1] || reach[2] > reach[3]) return pairs;
         count_poses_in_play(pruner, open, reach, width_, height_);
     }
-    const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
+    const std::int32_t key_base = key_base_of(test, angle_in_batch);
+    const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
     for (const SliceRun& run : runs) {
         const auto band = in_play.band(run);
         if (!band) continue;
         const auto [j0, j1] = *band;
-        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base_of(test, angle_in_batch))];
+        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base)];
         const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
         const auto from = std::lower_bound(key_begin, key_end, run.y + range_.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
         const auto to = std::upper_bound(from, key_end, run.y + range_.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
