@@ -551,9 +551,11 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         auto both = sweep_both(problem);
         expect_identical(both);
         // Tiny items, pose by pose and by maps (fixed runs split into many chunks, maps in many
-        // batches of angles).
+        // batches of angles, pose-by-pose waves in many dispatches).
         for (bool maps : {false, true}) {
             gpu::VulkanSweeper tiny(test::context(), {.max_poses_per_batch = 5000,
+                                                      .angles_per_core_round = 1,
+                                                      .max_poses_per_dispatch = 777,
                                                       .loop_budget = 200,
                                                       .block = 2,
                                                       .maps = maps,
@@ -563,6 +565,12 @@ TEST(Sweep, WorkSplittingMatchesReference) {
             test::expect_no_validation_messages();
             EXPECT_EQ(split.outcomes, both.reference.outcomes) << "maps " << maps;
         }
+        // Batches of 16 angles, as on a 16-core machine, past max_poses_per_batch; pose by pose in
+        // slices of one dispatch each.
+        gpu::VulkanSweeper rounds(test::context(), {.max_poses_per_batch = 5000, .angles_per_core_round = 16, .max_poses_per_dispatch = 4096,
+                                                    .pose_test_pairs = 0});
+        EXPECT_EQ(rounds.sweep(problem).outcomes, both.reference.outcomes);
+        test::expect_no_validation_messages();
         if (std::string(type) == "0&0b") {
             EXPECT_GT(both.gpu.rejected[2], 0u);
             EXPECT_GT(both.gpu.solutions, 0u);

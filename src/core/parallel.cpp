@@ -52,7 +52,7 @@ private:
 class Helpers {
 public:
     static Helpers& instance() {
-        static Helpers helpers(std::max(1u, std::thread::hardware_concurrency()) - 1);
+        static Helpers helpers(core_count() - 1);
         return helpers;
     }
 
@@ -125,9 +125,11 @@ private:
 
 }  // namespace
 
+unsigned core_count() { return std::max(1u, std::thread::hardware_concurrency()); }
+
 void parallel_for(std::size_t count, const std::function<void(std::size_t)>& work, unsigned threads) {
     if (count == 0) return;
-    if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+    if (threads == 0) threads = core_count();
     const std::size_t helpers = std::min<std::size_t>(threads, count) - 1;
     Loop loop(count, work);
     if (helpers == 0) {

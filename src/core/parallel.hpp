@@ -15,4 +15,7 @@ namespace amhv {
 // exception of the lowest item that threw is rethrown here (the same one on every run).
 void parallel_for(std::size_t count, const std::function<void(std::size_t)>& work, unsigned threads = 0);
 
+// The threads parallel_for uses by default: one per core (at least 1).
+unsigned core_count();
+
 }  // namespace amhv

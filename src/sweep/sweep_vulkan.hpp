@@ -18,6 +18,14 @@ namespace amhv::gpu {
 
 struct SweeperOptions {
     std::uint64_t max_poses_per_batch = std::uint64_t(1) << 22;
+    // A batch's angles are a multiple of this many (0: one per core), past max_poses_per_batch
+    // where the maps' bytes allow: the host cuts and prunes each angle's runs on a core of its
+    // own, and a batch of fewer angles than cores leaves cores idle (the 5 mm paper scene's
+    // batches of 2 angles left 14 of a 16-core GPU machine's cores idle).
+    int angles_per_core_round = 0;
+    // Poses one pose-by-pose dispatch takes at most (0: as many as 32-bit item indices and the
+    // device's storage buffers allow); a wave over more goes in slices.
+    std::uint64_t max_poses_per_dispatch = 0;
     // Loop iterations one invocation may run (lavapipe silently stops loops after about 65,535).
     std::uint32_t loop_budget = 32768;
     // Offsets per side of the exact block pre-test (1: off). Each stage first tests one pose per

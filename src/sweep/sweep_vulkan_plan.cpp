@@ -254,16 +254,12 @@ void SweepRun::upload_angle_tables() {
     });
 }
 
-// Batches of angles small enough for the flag buffer, 32-bit item counts and the map bytes a
-// batch may hold (one bit per offset, a row of words per j, per angle and map).
+// Batches of angles: at most max_poses_per_batch poses, rounded up to whole rounds of angles over
+// the cores, and no more than the map bytes a batch may hold (one bit per offset, a row of words
+// per j, per angle and map). Pose-by-pose dispatches take a batch in slices (poses_per_dispatch).
 void SweepRun::size_batches() {
     const SweeperOptions& options = tools_.options;
-    std::uint64_t max_items = 1;
-    for_each_test([&](const OverlapTest& test) {
-        max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test).items_per_pose));
-        if (block_ > 1) max_items = std::max<std::uint64_t>(max_items, std::uint64_t(blocks_of(test, block_ - 1).items_per_pose));
-    });
-    const std::uint64_t max_poses = std::max<std::uint64_t>(1, std::min(options.max_poses_per_batch, (std::uint64_t(1) << 31) / max_items));
+    const std::uint64_t max_poses = std::max<std::uint64_t>(1, options.max_poses_per_batch);
     if (per_angle_ > max_poses) fail("sweep", "one angle has {} poses, more than a batch of {}; narrow the x/y range", per_angle_, max_poses);
     row_words_ = (width_ + 31) / 32;
     std::uint64_t maps_per_angle = 0;
@@ -275,7 +271,8 @@ void SweepRun::size_batches() {
     if (map_bytes_per_angle > max_map_bytes)
         fail("sweep", "the overlap maps of one angle need {} bytes, more than the {} a batch may hold; narrow the x/y range", map_bytes_per_angle,
              max_map_bytes);
-    std::uint64_t batch_limit = std::max<std::uint64_t>(1, max_poses / per_angle_);
+    const std::uint64_t round = options.angles_per_core_round > 0 ? std::uint64_t(options.angles_per_core_round) : core_count();
+    std::uint64_t batch_limit = (max_poses / per_angle_ + round - 1) / round * round;
     if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
     angles_per_batch_ = int(std::max<std::uint64_t>(1, batch_limit));
     if (width_ > 0xffff || height_ > 0xffff)

@@ -68,14 +68,68 @@ std::size_t SweepRun::outcome_index(const Pose& p) const {
            std::size_t(p[1] - range_.i_first);
 }
 
+// The most poses one dispatch of a wave takes: its items are indexed in 32 bits, and its pose
+// list (16 bytes a pose) and flags are storage buffers. A batch may hold more poses than that (a
+// batch's angles go by the cores, and maps have no such limit), so a wave goes in slices.
+std::uint64_t SweepRun::poses_per_dispatch(int chunks, int words) const {
+    if (std::uint64_t(chunks) >= (std::uint64_t(1) << 31)) fail("sweep", "internal: {} work items for one pose", chunks);
+    const std::uint64_t range = tools_.context.selected().max_storage_buffer_range;
+    std::uint64_t most = std::min({(std::uint64_t(1) << 31) / std::uint64_t(chunks), range / 16, range / (std::uint64_t(words) * 4)});
+    if (tools_.options.max_poses_per_dispatch > 0) most = std::min(most, tools_.options.max_poses_per_dispatch);
+    return std::max<std::uint64_t>(1, most);
+}
+
+// Items chunk_first .. chunk_first + chunks - 1 of the poses `slice` (indices into the pose list,
+// or of the implicit poses from `angle_first` when `implicit`: then the slice is all of them, in
+// order): one dispatch, waited for. Returns the flags, `words` per pose of the slice.
+const std::uint32_t* SweepRun::dispatch_wave_slice(const OverlapTest& test, const Blocks& b, const std::vector<Pose>* pose_list, int angle_first,
+                                                   bool implicit, int chunk_first, int chunks, std::span<const std::uint64_t> slice) {
+    Context& context = tools_.context;
+    const ColumnVolume& s = test.fixed->columns;
+    const ColumnVolume& m = test.moving->columns;
+    const int words = test.flag_words();
+    if (!implicit) {
+        poses_.ensure(context, slice.size() * 16);
+        auto* out = poses_.host<std::uint8_t>().data();
+        for (std::size_t l = 0; l < slice.size(); ++l) {
+            const Pose pose = pose_list ? (*pose_list)[slice[l]] : implicit_pose(angle_first, slice[l]);
+            std::memcpy(out + l * 16, pose.data(), 16);
+        }
+        poses_.copy_to_device(sequence_, slice.size() * 16);
+    }
+    const std::uint64_t flag_bytes = slice.size() * std::uint64_t(words) * 4;
+    flags_.ensure(context, flag_bytes);
+    sequence_.fill(flags_.device(), flag_bytes, 0u);
+    // The clear must land before the test ORs its flags in.
+    sequence_.barrier();
+    const BoundBuffers set = tools_.overlap.bind(
+        {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
+         implicit ? &no_poses_ : &poses_.device(), &flags_.device(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses_,
+         test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses_});
+    const OverlapParams params{0, 0,
+                               std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
+                               std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
+                               s.slots, s.zwords, test.frames, test.mode(),
+                               b.columns, b.rows, b.items_x, chunk_first, chunks,
+                               range_.i_first, range_.j_first, width_, height_,
+                               angle_first, implicit ? 0 : 1, words, 0,
+                               test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
+    const std::uint64_t items = slice.size() * std::uint64_t(chunks);
+    tools_.stats.work_items += items;
+    sequence_.dispatch(tools_.overlap, set, params, std::uint32_t(items));
+    // The host reads the flags after the fence.
+    flags_.copy_to_host(sequence_, flag_bytes);
+    sequence_.barrier_to_host();
+    submit_and_wait();
+    ++tools_.stats.submits;
+    return flags_.host<std::uint32_t>().data();
+}
+
 // A pose's work items go out in waves (one block of frames, or a quarter of the columns, at a
 // time); a pose that a wave decides (an overlap found; a frame without one) is not sent again,
 // since items cannot tell each other to stop.
 void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* pose_list, std::uint64_t count, int angle_first,
                               std::vector<std::uint32_t>& found) {
-    Context& context = tools_.context;
-    const ColumnVolume& s = test.fixed->columns;
-    const ColumnVolume& m = test.moving->columns;
     const Blocks b = blocks_of(test);
     const int words = test.flag_words();
     const bool per_frame = test.want == Want::Frames;
@@ -84,66 +138,36 @@ void SweepRun::run_test_waves(const OverlapTest& test, const std::vector<Pose>* 
     for (std::uint64_t p = 0; p < count; ++p) live[p] = p;
     for (int chunk_first = 0; chunk_first < b.items_per_pose && !live.empty(); chunk_first += wave) {
         const int chunks = std::min(wave, b.items_per_pose - chunk_first);
-        const bool implicit = !pose_list && live.size() == count;
-        if (!implicit) {
-            poses_.ensure(context, live.size() * 16);
-            auto* out = poses_.host<std::uint8_t>().data();
-            for (std::size_t l = 0; l < live.size(); ++l) {
-                const Pose pose = pose_list ? (*pose_list)[live[l]] : implicit_pose(angle_first, live[l]);
-                std::memcpy(out + l * 16, pose.data(), 16);
-            }
-            poses_.copy_to_device(sequence_, live.size() * 16);
-        }
-        const std::uint64_t flag_bytes = live.size() * std::uint64_t(words) * 4;
-        flags_.ensure(context, flag_bytes);
-        sequence_.fill(flags_.device(), flag_bytes, 0u);
-        // The clear must land before the test ORs its flags in.
-        sequence_.barrier();
-        const BoundBuffers set = tools_.overlap.bind(
-            {test.fixed->bits.get(), test.fixed->rows.get(), test.moving->bits.get(), test.moving->angles.get(),
-             implicit ? &no_poses_ : &poses_.device(), &flags_.device(), test.fixed->frame_boxes ? test.fixed->frame_boxes.get() : &no_poses_,
-             test.moving->angle_frame_boxes ? test.moving->angle_frame_boxes.get() : &no_poses_});
-        const OverlapParams params{0, 0,
-                                   std::int32_t(s.x0), std::int32_t(s.y0), s.nx, s.ny,
-                                   std::int32_t(m.x0), std::int32_t(m.y0), m.nx, m.ny,
-                                   s.slots, s.zwords, test.frames, test.mode(),
-                                   b.columns, b.rows, b.items_x, chunk_first, chunks,
-                                   range_.i_first, range_.j_first, width_, height_,
-                                   angle_first, implicit ? 0 : 1, words, 0,
-                                   test.word_first(), test.word_last(), b.frames_per_item, b.spatial_items};
-        const std::uint64_t items = live.size() * std::uint64_t(chunks);
-        tools_.stats.work_items += items;
-        sequence_.dispatch(tools_.overlap, set, params, std::uint32_t(items));
-        // The host reads the flags after the fence.
-        flags_.copy_to_host(sequence_, flag_bytes);
-        sequence_.barrier_to_host();
-        submit_and_wait();
-        ++tools_.stats.submits;
-        const std::uint32_t* f = flags_.host<std::uint32_t>().data();
+        const std::uint64_t per_dispatch = poses_per_dispatch(chunks, words);
+        const bool implicit = !pose_list && live.size() == count && count <= per_dispatch;
         // Frames whose every item has run: more frames among them without overlap than the test
         // allows decide the pose.
         const int frames_done = per_frame ? std::min(frames_, (chunk_first + chunks) / b.spatial_items * b.frames_per_item) : 0;
         std::vector<std::uint64_t> undecided;
-        for (std::size_t l = 0; l < live.size(); ++l) {
-            std::uint32_t* w = found.data() + live[l] * std::uint64_t(words);
-            for (int q = 0; q < words; ++q) w[q] |= f[l * std::size_t(words) + std::size_t(q)];
-            bool decided = false;
-            if (per_frame) {
-                // Too many frames without overlap fail it; enough frames with one pass it.
-                int misses = 0, hits = 0;
-                for (int t2 = 0; t2 < frames_; ++t2) {
-                    const bool hit = (w[t2 >> 5] & (1u << (t2 & 31))) != 0;
-                    hits += hit;
-                    misses += !hit && t2 < frames_done;
-                }
-                decided = misses > test.misses_allowed() || hits >= test.needed;
-            } else {
-                decided = w[0] != 0;
+        for (std::size_t first = 0; first < live.size(); first += per_dispatch) {
+            const std::span<const std::uint64_t> slice(live.data() + first, std::min<std::size_t>(per_dispatch, live.size() - first));
+            const std::uint32_t* f = dispatch_wave_slice(test, b, pose_list, angle_first, implicit, chunk_first, chunks, slice);
+            for (std::size_t l = 0; l < slice.size(); ++l) {
+                std::uint32_t* w = found.data() + slice[l] * std::uint64_t(words);
+                for (int q = 0; q < words; ++q) w[q] |= f[l * std::size_t(words) + std::size_t(q)];
+                if (!wave_decides(test, w, frames_done)) undecided.push_back(slice[l]);
             }
-            if (!decided) undecided.push_back(live[l]);
         }
         live = std::move(undecided);
     }
+}
+
+// Whether a pose's flags so far (`w`) decide the test, `frames_done` frames having run in full.
+bool SweepRun::wave_decides(const OverlapTest& test, const std::uint32_t* w, int frames_done) const {
+    if (test.want != Want::Frames) return w[0] != 0;
+    // Too many frames without overlap fail it; enough frames with one pass it.
+    int misses = 0, hits = 0;
+    for (int t2 = 0; t2 < frames_; ++t2) {
+        const bool hit = (w[t2 >> 5] & (1u << (t2 & 31))) != 0;
+        hits += hit;
+        misses += !hit && t2 < frames_done;
+    }
+    return misses > test.misses_allowed() || hits >= test.needed;
 }
 
 Meets SweepRun::run_stage(const std::vector<OverlapTest>& stage, const std::vector<Pose>* pose_list, std::uint64_t implicit_count,

@@ -225,6 +225,10 @@ private:
     // One test of run_stage, in waves; fills `found` (flag words per pose).
     void run_test_waves(const OverlapTest& test, const std::vector<Pose>* pose_list, std::uint64_t count, int angle_first,
                         std::vector<std::uint32_t>& found);
+    std::uint64_t poses_per_dispatch(int chunks, int words) const;
+    const std::uint32_t* dispatch_wave_slice(const OverlapTest& test, const Blocks& b, const std::vector<Pose>* pose_list, int angle_first,
+                                             bool implicit, int chunk_first, int chunks, std::span<const std::uint64_t> slice);
+    bool wave_decides(const OverlapTest& test, const std::uint32_t* w, int frames_done) const;
     std::vector<Verdict> block_verdicts(int stage, const std::vector<Pose>& bases);
     // Stage 1..3 for `candidates` of a batch: blocks first, then pose by pose where undecided.
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
