@@ -154,12 +154,19 @@ void evaluate_chain(const std::vector<ChainSegment>& segments, const ChainWeight
 
 namespace {
 
+// A state (k, d) of the segment before as one word, d * (its solutions) + k: half the memory of a
+// pair, and the back pointers of every segment stay until the end (a third of a gigabyte at 5 mm).
+using PackedState = std::uint32_t;
+constexpr PackedState kNoState = std::numeric_limits<PackedState>::max();
+
+PackedState pack_state(int k, int d, std::size_t states_per_rotation) { return PackedState(std::size_t(d) * states_per_rotation + std::size_t(k)); }
+
 // Best and its argument over the states (k, d) of the segment before, for each state (j, d) of
 // `seg` (the same rotation R): |a + R r - R r'|^2 = |R^-1 a + r - r'|^2, with r and r' on the h
 // grid, a separable 2D distance transform over the cells of the segment before. Its rows, then its
 // columns, are independent: they go to every core.
 void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
-                           const ChainWeights& w, int d, std::size_t i, std::vector<double>& best, std::vector<std::pair<int, int>>& arg) {
+                           const ChainWeights& w, int d, std::size_t i, std::vector<double>& best, std::vector<PackedState>& arg) {
     const double c = pair_factor(w), h = w.voxel;
     const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
     int pi0 = INT32_MAX, pi1 = INT32_MIN, pj0 = INT32_MAX, pj1 = INT32_MIN;
@@ -216,7 +223,7 @@ void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, co
         for (std::size_t j = first; j < last; ++j) {
             const auto& s = seg.solutions[j];
             const std::size_t at = std::size_t(s.j - qj0) * qw + std::size_t(s.i - qi0);
-            if (field[at] < best[j]) best[j] = field[at], arg[j] = {field_state[at], d};
+            if (field[at] < best[j]) best[j] = field[at], arg[j] = pack_state(field_state[at], d, prev.solutions.size());
         }
     });
 }
@@ -224,14 +231,14 @@ void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, co
 // The same through another rotation dp of the segment before: the two point sets are not on one
 // grid, so the direct minimum, each state of `seg` on its own core's share.
 void other_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
-                            const ChainWeights& w, int d, int dp, std::vector<double>& best, std::vector<std::pair<int, int>>& arg) {
+                            const ChainWeights& w, int d, int dp, std::vector<double>& best, std::vector<PackedState>& arg) {
     const double c = pair_factor(w);
     for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
         for (std::size_t j = first; j < last; ++j) {
             const Eigen::Vector2d qj = offset(seg.solutions[j], w, d);
             for (int k = 0; k < int(prev.solutions.size()); ++k) {
                 const double v = g[std::size_t(k)] + c * (a + offset(prev.solutions[std::size_t(k)], w, dp) - qj).squaredNorm();
-                if (v < best[j]) best[j] = v, arg[j] = {k, dp};
+                if (v < best[j]) best[j] = v, arg[j] = pack_state(k, dp, prev.solutions.size());
             }
         }
     });
@@ -242,12 +249,15 @@ void other_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, c
 ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWeights& w, const ChainRestrictions* restrictions) {
     check(segments, w);
     const int rotations = int(w.a_rotations_rad.size());
-    // cost[i][d][j] = best cost of segments 0..i ending in state (j, d); from[i][d][j] = (j', d') before it.
+    // cost[i][d][j] = best cost of segments 0..i ending in state (j, d); back[i][d][j] = (j', d') before it.
     std::vector<std::vector<std::vector<double>>> cost(segments.size());
-    std::vector<std::vector<std::vector<std::pair<int, int>>>> back(segments.size());
+    std::vector<std::vector<std::vector<PackedState>>> back(segments.size());
     for (std::size_t i = 0; i < segments.size(); ++i) {
         const auto& seg = segments[i];
         const std::size_t n = seg.solutions.size();
+        if (i > 0 && segments[i - 1].solutions.size() * std::size_t(rotations) >= kNoState)
+            throw Error(fmt::format("the DP: key segment {} has {} solutions at {} rotations, more states than it handles", i,
+                                    segments[i - 1].solutions.size(), rotations));
         cost[i].assign(std::size_t(rotations), std::vector<double>(n));
         // Filled per rotation below (the first segment's are never read): a pre-filled copy beside
         // `arg` was a quarter gigabyte of the DP's peak at 5 mm.
@@ -258,14 +268,14 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
             if (i == 0) continue;
             const auto& prev = segments[i - 1];
             const Eigen::Vector2d a = displacement_term(prev, seg, w);
-            std::vector<double> best(n, kInf);
-            std::vector<std::pair<int, int>> arg(n, {-1, -1});
+            std::vector<double> best_step(n, kInf);
+            std::vector<PackedState> arg(n, kNoState);
             for (int dp = 0; dp < rotations; ++dp) {
                 const auto& g = cost[i - 1][std::size_t(dp)];
-                if (dp == d) same_rotation_minimum(prev, seg, g, a, w, d, i, best, arg);
-                else other_rotation_minimum(prev, seg, g, a, w, d, dp, best, arg);
+                if (dp == d) same_rotation_minimum(prev, seg, g, a, w, d, i, best_step, arg);
+                else other_rotation_minimum(prev, seg, g, a, w, d, dp, best_step, arg);
             }
-            for (std::size_t j = 0; j < n; ++j) here[j] += best[j];  // inf stays inf: a state no allowed path reaches
+            for (std::size_t j = 0; j < n; ++j) here[j] += best_step[j];  // inf stays inf: a state no allowed path reaches
             back[i][std::size_t(d)] = std::move(arg);
         }
         // Only the back pointers of earlier segments are read again: at 5 mm the costs of every
@@ -289,7 +299,11 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
     for (std::size_t i = last + 1; i-- > 0;) {
         choice.solution[i] = best_j;
         choice.rotation[i] = best_d;
-        if (i > 0) std::tie(best_j, best_d) = back[i][std::size_t(best_d)][std::size_t(best_j)];
+        if (i > 0) {
+            const PackedState before = back[i][std::size_t(best_d)][std::size_t(best_j)];
+            const std::size_t per_rotation = segments[i - 1].solutions.size();
+            best_j = int(before % per_rotation), best_d = int(before / per_rotation);
+        }
     }
     evaluate_chain(segments, w, choice);
     return choice;
