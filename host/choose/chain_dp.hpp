@@ -16,6 +16,8 @@
 
 #include <Eigen/Core>
 
+#include "src/core/process.hpp"
+
 namespace amhv {
 
 struct ChainSolution {
@@ -24,7 +26,8 @@ struct ChainSolution {
 };
 
 struct ChainSegment {
-    std::vector<ChainSolution> solutions;  // R_i, non-empty
+    // R_i, non-empty; on zero pages until written (the edit fills a gigabyte of them at 5 mm on every core)
+    std::vector<ChainSolution, CallocAllocator<ChainSolution>> solutions;
     Eigen::Vector2d root_a = Eigen::Vector2d::Zero(), root_b = Eigen::Vector2d::Zero();  // capture frames, metres
     Eigen::Vector2d prior_offset = Eigen::Vector2d::Zero();  // r0: where the initial placement puts B (A's capture axes)
     double prior_theta_rad = 0;

@@ -13,6 +13,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "src/edit/frame_check.hpp"
 #include "host/choose/chain_alternatives.hpp"
 #include "host/paths/path_opt.hpp"
@@ -147,6 +148,24 @@ ChainWeights chain_weights(const Scene& scene) {
     return weights;
 }
 
+// The group's members as chain solutions, in the group's order, a chunk per core: each writes
+// its own fresh pages (at 5 mm the solutions are a gigabyte; filled on one core, the kernel's
+// clearing of those pages was half the DP's time).
+void fill_solutions(const KeySweep& s, std::vector<ChainSolution, CallocAllocator<ChainSolution>>& out) {
+    constexpr std::uint64_t kChunk = std::uint64_t(1) << 20;
+    const std::uint64_t n = s.group.size();
+    parallel_for(std::size_t((n + kChunk - 1) / kChunk), [&](std::size_t chunk) {
+        std::uint64_t at = chunk * kChunk;
+        // theta of angle index k, once per run of equal k (the group's order is (z, theta, y, x)).
+        int angle = std::numeric_limits<int>::min();
+        double theta = 0;
+        s.group.for_range(at, std::min(n, at + kChunk), [&](const PoseIndex& p) {
+            if (p.k != angle) angle = p.k, theta = radians(s.describe.theta_deg(p.k));
+            out[at++] = {p.i, p.j, theta};
+        });
+    });
+}
+
 // The DP's chain (docs/method.md section 7): each key segment's solutions as states, with the
 // pose where the editor's placements put B as the prior. An empty group stops the edit, or with
 // --allow-empty becomes the one state of B's captured placement on the lattice (`captured`, its
@@ -169,14 +188,8 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // Where the editor's placements put B relative to A, in A's capture axes.
         c.prior_offset = rotate(-psi_a, (rotate(psi_b, c.root_b) + place_b) - (rotate(psi_a, c.root_a) + place_a));
         c.prior_theta_rad = psi_b - psi_a;
-        c.solutions.reserve(s.group.size());
-        // theta of angle index k, once per run of equal k (the group's order is (z, theta, y, x)).
-        int angle = std::numeric_limits<int>::min();
-        double theta = 0;
-        s.group.for_each([&](const PoseIndex& p) {
-            if (p.k != angle) angle = p.k, theta = radians(s.describe.theta_deg(p.k));
-            c.solutions.push_back({p.i, p.j, theta});
-        });
+        c.solutions.resize(s.group.size());
+        fill_solutions(s, c.solutions);
         // The editor's placements leave B's height as captured (z = 0): with z_range the prior
         // gains mu z^2, so that among equal poses the one least raised or lowered wins.
         if (key.intent.prefers() || s.group.any_raised()) {
