@@ -133,7 +133,19 @@ AmhvSummary summarise(const Amhv& volume) {
 }
 
 bool any_occupied(const Amhv& volume) {
-    return std::any_of(volume.mask().begin(), volume.mask().end(), [](std::uint32_t word) { return word != 0u; });
+    // Blocks of words ORed whole (a loop the compiler vectorises), stopping at the first block with
+    // a bit: a part of a body starts deep in its grid, and a word-by-word search ran at a fraction
+    // of the memory's speed (a second and a half of a 5 mm edit on the H200 machine's cores).
+    const std::uint32_t* words = volume.mask().data();
+    const std::size_t count = volume.mask().size();
+    constexpr std::size_t kBlock = 1024;
+    for (std::size_t first = 0; first < count; first += kBlock) {
+        std::uint32_t any = 0;
+        const std::size_t last = std::min(count, first + kBlock);
+        for (std::size_t w = first; w < last; ++w) any |= words[w];
+        if (any) return true;
+    }
+    return false;
 }
 
 namespace {
