@@ -1,6 +1,7 @@
 #include "src/edit/edit.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -64,6 +65,35 @@ TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource
     return placed_mesh(edit.frames[std::size_t(object)][std::size_t(k)], source);
 }
 
+// Per frame f (bit f of the volume's one word), the sum of its voxels' centres (x, y) in (z, y, x)
+// order over the occupied voxels `slices`, and their count. The frames go to the cores in groups,
+// each group's sums in that same order: the same bits as one pass.
+void sum_frame_centres(const Amhv& volume, const std::vector<std::vector<std::uint32_t>>& slices, std::size_t count,
+                       std::vector<Eigen::Vector2d>& sum, std::vector<std::size_t>& occupied) {
+    const VoxelGrid& grid = volume.grid();
+    const std::size_t groups = std::min<std::size_t>(count, core_count());
+    parallel_for(groups, [&](std::size_t g) {
+        const std::size_t first = g * count / groups, last = (g + 1) * count / groups;
+        const std::uint32_t group_bits = std::uint32_t(((std::uint64_t(1) << last) - 1) & ~((std::uint64_t(1) << first) - 1));
+        // Local sums: neighbouring groups' entries share cache lines.
+        std::array<Eigen::Vector2d, 32> local_sum;
+        local_sum.fill(Eigen::Vector2d::Zero());
+        std::array<std::size_t, 32> local_count{};
+        for (std::size_t z = 0; z < slices.size(); ++z)
+            for (const std::uint32_t v : slices[z]) {
+                std::uint32_t bits = volume.word(0, z * std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]) + v) & group_bits;
+                if (!bits) continue;
+                const Vec3 c = grid.centre(int(v % std::uint32_t(grid.dims[0])), int(v / std::uint32_t(grid.dims[0])), int(z));
+                for (; bits; bits &= bits - 1) {
+                    const int f = std::countr_zero(bits);
+                    local_sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
+                    ++local_count[std::size_t(f)];
+                }
+            }
+        for (std::size_t f = first; f < last; ++f) sum[f] = local_sum[f], occupied[f] = local_count[f];
+    });
+}
+
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {
     // Frames are voxelised 32 at a time (one word of the mask) on a grid covering just those frames.
     std::vector<Eigen::Vector2d> roots(numbers.size());
@@ -84,18 +114,7 @@ std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector
         const Amhv volume = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
         std::vector<Eigen::Vector2d> sum(count, Eigen::Vector2d::Zero());
         std::vector<std::size_t> occupied(count, 0);
-        // In (z, y, x) order, over the occupied voxels alone (found on every core).
-        const auto slices = occupied_by_slice(volume);
-        for (std::size_t z = 0; z < slices.size(); ++z)
-            for (const std::uint32_t v : slices[z]) {
-                std::uint32_t bits = volume.word(0, z * std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]) + v);
-                const Vec3 c = grid.centre(int(v % std::uint32_t(grid.dims[0])), int(v / std::uint32_t(grid.dims[0])), int(z));
-                for (; bits; bits &= bits - 1) {
-                    const int f = std::countr_zero(bits);
-                    sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
-                    ++occupied[std::size_t(f)];
-                }
-            }
+        sum_frame_centres(volume, occupied_by_slice(volume), count, sum, occupied);
         for (std::size_t f = 0; f < count; ++f) {
             if (occupied[f] == 0) fail(merged[f].source, "occupies no voxel of {} m: the root is undefined", voxel);
             roots[first + f] = sum[f] / double(occupied[f]);
