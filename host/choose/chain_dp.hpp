@@ -25,9 +25,11 @@ struct ChainSolution {
     double theta_rad = 0;    // B's rotation (the edit keeps each solution's lattice index beside the chain)
 };
 
+// On zero pages until written: the edit fills a gigabyte of them at 5 mm, a chunk per core.
+using ChainSolutions = std::vector<ChainSolution, CallocAllocator<ChainSolution>>;
+
 struct ChainSegment {
-    // R_i, non-empty; on zero pages until written (the edit fills a gigabyte of them at 5 mm on every core)
-    std::vector<ChainSolution, CallocAllocator<ChainSolution>> solutions;
+    ChainSolutions solutions;  // R_i, non-empty
     Eigen::Vector2d root_a = Eigen::Vector2d::Zero(), root_b = Eigen::Vector2d::Zero();  // capture frames, metres
     Eigen::Vector2d prior_offset = Eigen::Vector2d::Zero();  // r0: where the initial placement puts B (A's capture axes)
     double prior_theta_rad = 0;

@@ -170,7 +170,7 @@ ChainWeights chain_weights(const Scene& scene) {
 // The group's members as chain solutions, in the group's order, a chunk per core: each writes
 // its own fresh pages (at 5 mm the solutions are a gigabyte; filled on one core, the kernel's
 // clearing of those pages was half the DP's time).
-void fill_solutions(const KeySweep& s, std::vector<ChainSolution, CallocAllocator<ChainSolution>>& out) {
+void fill_solutions(const KeySweep& s, ChainSolutions& out) {
     constexpr std::uint64_t kChunk = std::uint64_t(1) << 20;
     const std::uint64_t n = s.group.size();
     parallel_for(std::size_t((n + kChunk - 1) / kChunk), [&](std::size_t chunk) {

@@ -5,11 +5,11 @@
 #include <iostream>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include <fmt/format.h>
 
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 VULKAN_HPP_DEFAULT_DISPATCH_LOADER_DYNAMIC_STORAGE
 
@@ -114,8 +114,7 @@ bool validation_requested_by_environment() {
 // voxelisation about 1 ms faster in 41, the paper scene about 2 s in 35). Set before the driver
 // reads it, at enumeration; a value the user set stays, and other drivers ignore it.
 static void ask_lavapipe_for_two_threads_per_core() {
-    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-    setenv("LP_NUM_THREADS", std::to_string(2 * cores).c_str(), /*overwrite=*/0);
+    setenv("LP_NUM_THREADS", std::to_string(2 * core_count()).c_str(), /*overwrite=*/0);
 }
 
 Context::Context(ContextOptions options) : log_(std::make_unique<ValidationLog>()) {

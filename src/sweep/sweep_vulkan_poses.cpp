@@ -9,11 +9,10 @@
 
 namespace amhv::gpu::sweep_detail {
 
-// Work blocks per test: loop iterations per item stay under the budget. `grow`: columns the fixed
-// volume will gain on each side in x and y (its pooled form, before it exists).
-Blocks SweepRun::blocks_of(const OverlapTest& test, int grow) const {
+// Work blocks per test: loop iterations per item stay under the budget.
+Blocks SweepRun::blocks_of(const OverlapTest& test) const {
     const std::uint32_t budget = tools_.options.loop_budget;
-    const int nx = test.fixed->columns.nx + grow, ny = test.fixed->columns.ny + grow;
+    const int nx = test.fixed->columns.nx, ny = test.fixed->columns.ny;
     // PER_FRAME items loop frames outside and columns inside: size the spatial block for one
     // frame, then give the item as many frames as fit.
     const bool per_frame = test.want == Want::Frames;

@@ -212,7 +212,7 @@ private:
     }
 
     // ---- pose tests (sweep_vulkan_poses.cpp) ----
-    Blocks blocks_of(const OverlapTest& test, int grow = 0) const;
+    Blocks blocks_of(const OverlapTest& test) const;
     // The stage's tests with each fixed volume OR-pooled over a block of offsets (made on first use).
     const std::vector<OverlapTest>& block_stage(int stage);
     Pose implicit_pose(int angle_first, std::uint64_t p) const;
