@@ -458,8 +458,8 @@ TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
     }
     const auto large_input = prepare_voxelisation(sequence_of(large), 0.006);
     const auto small_input = prepare_voxelisation(sequence_of(small), 0.004);
-    // The same frames backwards: the same grid, other flips in every batch. A call after one on the
-    // same grid clears only the flips the last one left.
+    // The same frames backwards: the same grid, other flips in every batch. Each batch clears only
+    // the flips of its own columns with room, whatever the calls before left in the others.
     const auto reversed_input = prepare_voxelisation(sequence_of({large.rbegin(), large.rend()}), 0.006);
     ASSERT_EQ(reversed_input.grid.dims, large_input.grid.dims);
     ReferenceVoxeliser reference;
@@ -509,7 +509,7 @@ TEST(Voxelise, ManyCrossingsPerColumnSortAndMatchReference) {
 // Frame 0 (one box) crosses a column twice, frame 1 (two stacked boxes) four times: a limit of 4
 // splits the two-frame batch and matches the reference, a limit of 3 must refuse frame 1. The
 // refusal leaves the skipped column's flips behind: the voxeliser's next call must not see them
-// (it clears all flips before its first batch).
+// (each batch clears the flips of its columns with room before its kernels run).
 TEST(Voxelise, TooManyCrossingsPerColumnIsAnErrorNamingTheFrame) {
     TriangleMesh stacked = shapes::box({0.0, 0.0, 0.0}, {0.2, 0.2, 0.1});
     stacked.append(shapes::box({0.0, 0.0, 0.2}, {0.2, 0.2, 0.3}));

@@ -123,7 +123,7 @@ private:
     void prepare_buffers();
     Batch batch_at(int first, int word_last) const;
     std::uint32_t gather(int batch_first, int batch_frames);
-    void bucket_starts(int batch_first, int batch_frames);
+    void bucket_starts(int batch_first, int batch_frames, int slab_layers);
     bool dispatch_batch(Buffer& mask, int batch_first, int batch_frames, int word_first, int word_last, int z_begin, int slab_layers,
                         std::uint32_t mask_base);
     void voxelise_slab(int word, int z_begin);
@@ -143,10 +143,6 @@ private:
     int frames_limit_ = 32;
     std::uint64_t key_room_ = 0, slab_bytes_ = 0;
     Sequence sequence_;
-    // The flips per column ([column][z]) of the slab of the batch before, which the host clears; 0
-    // where the device clears them, and before the call's first batch unless the last call's are
-    // known (then they are the columns with room in its last batch, as column_frames still says).
-    std::size_t dirty_column_flips_ = 0;
     // Each frame's bucket rooms as a difference array along the rows, (nx + 1) x ny.
     const std::size_t room_row_, room_edges_per_frame_;
     std::vector<std::uint32_t> slot_base_, frame_base_;
@@ -207,7 +203,6 @@ void VulkanVoxeliser::Call::run() {
     prepare_buffers();
     for (int word = 0; word < out_.words(); ++word)
         for (int z_begin = 0; z_begin < nz_; z_begin += v_.plan_.slab_layers) voxelise_slab(word, z_begin);
-    v_.flips_left_ = {dirty_column_flips_, columns_};
 }
 
 // Every closed frame's plan, on the host's threads; a frame too large for one buffer is an error
@@ -292,18 +287,12 @@ void VulkanVoxeliser::Call::prepare_buffers() {
     buffers_prepared_ = true;
     const std::uint64_t bucket_bytes = layer_bytes_ * std::uint64_t(v_.plan_.frames_per_batch);
     if (!in_place_) ensure_capacity(context, b.mask, slab_bytes_, Buffer::Memory::Host);
-    // Where the device works in host memory, the flips are host-visible and, after the call's first
-    // batch, the host clears only the columns the batch before flipped (on its threads; lavapipe
-    // clears a buffer on one). Elsewhere they stay in device memory and are cleared by the device.
+    // Where the device works in host memory, the flips are host-visible and the host clears, before
+    // each batch, only the columns that batch has room in: the only flips it writes or reads (on
+    // its threads; lavapipe filled the whole buffer, a grid's worth, on one). Elsewhere they stay in
+    // device memory and the device clears them.
     host_clears_flips_ = context.selected().shares_host_memory();
     const Buffer::Memory flips_memory = host_clears_flips_ ? Buffer::Memory::Host : Buffer::Memory::Device;
-    // The flips the last call left, if the buffers that say where they are stay (see flips_left_).
-    auto kept = [](const std::unique_ptr<Buffer>& buffer, std::uint64_t bytes, Buffer::Memory memory) {
-        return buffer && buffer->size() >= bytes && buffer->memory() == memory;
-    };
-    const FlipsLeft flips_left = std::exchange(v_.flips_left_, FlipsLeft{});  // unknown until this call ends
-    const bool flips_left_kept = host_clears_flips_ && flips_left.layers != 0 && flips_left.columns == columns_ &&
-                                 kept(b.toggles, slab_bytes_, flips_memory) && kept(b.column_frames, layer_bytes_, Buffer::Memory::Host);
     ensure_capacity(context, b.toggles, slab_bytes_, flips_memory);
     // One start more than there are buckets: the end of the last one, so every column's room is
     // the difference of two starts.
@@ -318,7 +307,6 @@ void VulkanVoxeliser::Call::prepare_buffers() {
     ensure_capacity(context, b.medium_buckets, bucket_bytes, Buffer::Memory::Device);
     ensure_capacity(context, b.lists, 48, Buffer::Memory::Host);
     b.overflow->mapped<std::uint32_t>()[0] = 0;
-    dirty_column_flips_ = flips_left_kept ? flips_left.layers : 0;
 }
 
 // Host side of a batch: one work item per masked triangle and per run, written straight into the
@@ -379,7 +367,7 @@ std::uint32_t VulkanVoxeliser::Call::gather(int batch_first, int batch_frames) {
 // Stretches in bucket order; every cursor starts at its bucket's start. A frame's rooms add up to
 // its planned keys, so every frame knows where its stretches begin and the frames go on the host's
 // threads. Then each column's frames with room, and every list of larger buckets empty.
-void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames) {
+void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames, int slab_layers) {
     Buffers& b = v_.buffers_;
     const std::vector<std::int32_t>& room_edges = v_.host_->room_edges;
     std::uint32_t* starts = b.bucket_start->mapped<std::uint32_t>().data();
@@ -403,24 +391,25 @@ void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames) {
     });
     starts[std::size_t(batch_frames) * columns_] = slot_base_[std::size_t(batch_frames)];
     // Each column's frames with room (bucket rooms are differences of starts), in stretches of
-    // columns on the host's threads. Before that, after the call's first batch, the flips of the
-    // batch before are cleared: only the columns where it had room have any (a skipped column's
-    // too), and their words lie together.
+    // columns on the host's threads; then, where the host clears them, the flips of the columns
+    // with room, whatever an earlier batch or call left there: the batch's kernels write and read
+    // the flips of those columns alone (a skipped column's are left, and cleared again before a
+    // batch that has room in it), and each column's words lie together.
     std::uint32_t* frames_with_room = b.column_frames->mapped<std::uint32_t>().data();
     std::uint32_t* flips = host_clears_flips_ ? b.toggles->mapped<std::uint32_t>().data() : nullptr;
     constexpr std::size_t kStretches = 16;
-    const std::size_t columns = columns_, dirty = dirty_column_flips_;
+    const std::size_t columns = columns_, layers = std::size_t(slab_layers);
     parallel_for(kStretches, [&](std::size_t stretch) {
         const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
-        if (dirty != 0)
-            for (std::size_t column = first; column < last; ++column)
-                if (frames_with_room[column] != 0) std::fill_n(flips + column * dirty, dirty, 0u);
         std::fill(frames_with_room + first, frames_with_room + last, 0u);
         for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
             const std::uint32_t* start = starts + slot * columns;
             for (std::size_t column = first; column < last; ++column)
                 frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
         }
+        if (flips)
+            for (std::size_t column = first; column < last; ++column)
+                if (frames_with_room[column] != 0) std::fill_n(flips + column * layers, layers, 0u);
     });
     // Every list empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
     std::uint32_t* list_heads = b.lists->mapped<std::uint32_t>().data();
@@ -446,8 +435,7 @@ bool VulkanVoxeliser::Call::dispatch_batch(Buffer& mask, int batch_first, int ba
     // The previous batch's last reads of the flips and keys must be done before they are cleared
     // and rewritten (the host wrote the cursors after the fence).
     sequence_.barrier();
-    if (dirty_column_flips_ == 0) sequence_.fill(toggles, slab_bytes_, 0u);  // see host_clears_flips_
-    if (host_clears_flips_) dirty_column_flips_ = std::size_t(slab_layers);
+    if (!host_clears_flips_) sequence_.fill(toggles, slab_bytes_, 0u);
     sequence_.dispatch(v_.raster_, raster_set, raster, batch_items_);
     // Every key and final cursor must be in place before the columns sort them.
     sequence_.barrier();
@@ -509,7 +497,7 @@ void VulkanVoxeliser::Call::voxelise_slab(int word, int z_begin) {
             continue;
         }
         any_work = true;
-        bucket_starts(batch_first, batch_frames);
+        bucket_starts(batch_first, batch_frames, slab_layers);
         if (dispatch_batch(mask, batch_first, batch_frames, word_first, word_last, z_begin, slab_layers, mask_base)) {
             batch_first += batch_frames;
             continue;

@@ -89,15 +89,6 @@ private:
         }
     };
     Buffers buffers_;
-    // The flips a call leaves where the host clears them: in its last batch's columns with room (the
-    // column_frames buffer), `layers` words each, on a grid of `columns` columns. The next call on
-    // the same columns clears only those instead of the whole buffer (lavapipe fills on one thread).
-    // layers == 0: unknown (no call yet, or one that failed).
-    struct FlipsLeft {
-        std::size_t layers = 0;
-        std::uint32_t columns = 0;
-    };
-    FlipsLeft flips_left_;
     // The host's lists (each frame's plan, the bucket rooms), kept between calls like the buffers:
     // freeing them let glibc hand their pages back and fault them in again on the next call.
     struct HostScratch;
