@@ -792,5 +792,96 @@ TEST(FrameCheck, NearestVoxelsIsTheBruteForceMinimum) {
     }
 }
 
+
+// The brute-force answer of the frame check for one output frame: both bodies voxelised on one
+// grid by the CPU reference, their shared voxels counted, and with none, the nearest pair of their
+// surface voxels (an occupied voxel with an empty 6-neighbour) by trying every pair.
+struct CheckedFrame {
+    std::size_t overlap = 0;
+    std::string gap_mm;  // as frames.csv writes it; empty beyond kGapReach
+};
+CheckedFrame check_by_brute_force(const MeshFrame& a, const MeshFrame& b, double h) {
+    Box3 both = a.mesh.bounds();
+    both.extend(b.mesh.bounds());
+    ReferenceVoxeliser reference;
+    const Amhv volume = voxelise(prepare_voxelisation({&a, &b}, grid_covering(both, h, "brute force")), reference);
+    const VoxelGrid& g = volume.grid();
+    const auto bits = [&](int x, int y, int z) {
+        return x >= 0 && y >= 0 && z >= 0 && x < g.dims[0] && y < g.dims[1] && z < g.dims[2] ? volume.word(0, g.index(x, y, z)) : 0u;
+    };
+    CheckedFrame checked;
+    std::array<std::vector<std::array<int, 3>>, 2> surface;
+    for (int z = 0; z < g.dims[2]; ++z)
+        for (int y = 0; y < g.dims[1]; ++y)
+            for (int x = 0; x < g.dims[0]; ++x) {
+                const std::uint32_t w = bits(x, y, z);
+                if ((w & 3u) == 3u) ++checked.overlap;
+                const std::uint32_t inner = bits(x - 1, y, z) & bits(x + 1, y, z) & bits(x, y - 1, z) & bits(x, y + 1, z) & bits(x, y, z - 1) & bits(x, y, z + 1);
+                for (std::size_t body = 0; body < 2; ++body)
+                    if ((w >> body) & ~(inner >> body) & 1u) surface[body].push_back({x, y, z});
+            }
+    if (checked.overlap > 0) {
+        checked.gap_mm = "0.0";
+        return checked;
+    }
+    long best = std::numeric_limits<long>::max();
+    for (const auto& p : surface[0])
+        for (const auto& q : surface[1]) {
+            const long dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            best = std::min(best, dx * dx + dy * dy + dz * dz);
+        }
+    const double centres = std::sqrt(double(best)) * h;
+    if (centres - h <= kGapReach) checked.gap_mm = fmt::format("{:.1f}", std::max(0.0, centres - h) * 1000);
+    return checked;
+}
+
+// Every output frame of edits whose B walks through A and away at four speeds (kept, with
+// --allow-transition-overlap) against the brute force: the check voxelises batches of frames on
+// one grid and scans only where the two bodies' reaches meet, and must give the same overlaps and
+// gaps, from touching to beyond the reach (at 10 cm a frame, one frame's boxes lie just beyond the
+// reach while its gap is within it).
+TEST(FrameCheck, EveryFrameMatchesTheBruteForce) {
+    int overlapping = 0, with_gap = 0, beyond = 0;
+    for (const double speed : {0.08, 0.1, 0.12, 0.15}) {
+        FixtureWalks walks;
+        walks.a = [](int) { return Eigen::Vector2d(0, 0); };
+        walks.b = [speed](int f) { return Eigen::Vector2d(0, f < 30 ? 0.0 : speed * (f - 29)); };
+        EditFixture fixture("0&0a", "prefer = { distance_m = 0.6, thetaA_deg = 0.0, thetaB_deg = 0.0 }", 0, walks);
+        const fs::path out = fixture.dir.path() / "out";
+        auto run = test::run_amhv(fmt::format("edit {} --allow-transition-overlap --no-frames --no-glb --no-page --no-timings --out '{}'",
+                                              fixture.quoted(), out.string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+        const Scene scene = load_scene(fixture.scene);
+        ObjectSource a(scene.a), b(scene.b);
+        const auto transforms = read_json(out / "transforms.json").at("output");
+        std::istringstream rows(read_text(out / "frames.csv"));
+        std::string row;
+        std::getline(rows, row);
+        int checked = 0;
+        const auto whole = [](const std::string&) { return true; };
+        while (std::getline(rows, row)) {
+            std::vector<std::string> cells;
+            std::stringstream cut(row);
+            for (std::string cell; std::getline(cut, cell, ',');) cells.push_back(cell);
+            if (cells.size() == 4) cells.emplace_back();  // no gap: the line ends in a comma
+            ASSERT_EQ(cells.size(), 5u) << row;
+            const auto& frame = transforms.at(std::size_t(std::stoi(cells[0])));
+            const CheckedFrame truth = check_by_brute_force(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole),
+                                                            scene.sampling.voxel);
+            EXPECT_EQ(cells[2], std::to_string(truth.overlap)) << speed << " m a frame: " << row;
+            EXPECT_EQ(cells[4], truth.gap_mm) << speed << " m a frame: " << row;
+            ++checked;
+            overlapping += truth.overlap > 0;
+            with_gap += truth.overlap == 0 && !truth.gap_mm.empty();
+            beyond += truth.gap_mm.empty();
+        }
+        EXPECT_EQ(checked, 40) << "one row per output frame";
+    }
+    // The walks give every case: frames inside each other, near, and out of reach.
+    EXPECT_GE(overlapping, 20);
+    EXPECT_GE(with_gap, 6);
+    EXPECT_GE(beyond, 10);
+}
+
 }  // namespace
 }  // namespace amhv

@@ -166,9 +166,10 @@ struct BatchScan {
     }
 };
 
-// Layers z0..z1-1: each voxel's boundary bits (its word less the AND of its six neighbours' words;
-// outside the grid is empty) and its overlap bits (A's bit f with B's bit n + f), every frame at once.
-BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, int z0, int z1) {
+// Layers z0..z1-1 of `region`: each voxel's boundary bits (its word less the AND of its six
+// neighbours' words; outside the grid is empty) and its overlap bits (A's bit f with B's bit n + f),
+// every frame at once.
+BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, const Region& region, int z0, int z1) {
     const VoxelGrid& g = both.grid();
     BatchScan scan(n);
     auto word = [&](int x, int y, int z) {
@@ -184,11 +185,11 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
         return word(x - 1, y, z) & word(x + 1, y, z) & word(x, y - 1, z) & word(x, y + 1, z) & word(x, y, z - 1) & word(x, y, z + 1);
     };
     for (int z = z0; z < z1; ++z)
-        for (int y = 0; y < g.dims[1]; ++y)
-            for (int x = 0; x < g.dims[0]; ++x) {
+        for (int y = region.lo[1]; y <= region.hi[1]; ++y)
+            for (int x = region.lo[0]; x <= region.hi[0]; ++x) {
                 const std::size_t v = g.index(x, y, z);
                 // The bodies fill a few percent of the batch's grid: eight empty voxels at once.
-                if ((x & 7) == 0 && x + 8 <= g.dims[0] && eight_words_zero(plane + v)) {
+                if ((x & 7) == 0 && x + 8 <= region.hi[0] + 1 && eight_words_zero(plane + v)) {
                     x += 7;
                     continue;
                 }
@@ -207,12 +208,32 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
     return scan;
 }
 
-// The whole volume in slabs of layers on every core, joined in z order: the same as one pass.
+// Where a frame's voxels can matter: a body's boundary voxel counts only within the reach of the
+// other's box (nearest_voxels), and an overlap lies in both boxes, so both within each box's
+// reach. The box of those regions over the batch's frames (first > last on an axis: none).
+Region scan_region(const VoxelGrid& grid, const std::vector<Pending>& batch) {
+    const double reach = kGapReach + 2 * grid.voxel;
+    Region all{{grid.dims[0], grid.dims[1], grid.dims[2]}, {-1, -1, -1}};
+    for (const Pending& p : batch) {
+        const Region a = near_box(grid, p.box_a, reach), b = near_box(grid, p.box_b, reach);
+        Region both;
+        for (std::size_t axis = 0; axis < 3; ++axis) both.lo[axis] = std::max(a.lo[axis], b.lo[axis]), both.hi[axis] = std::min(a.hi[axis], b.hi[axis]);
+        if (both.lo[0] > both.hi[0] || both.lo[1] > both.hi[1] || both.lo[2] > both.hi[2]) continue;
+        for (std::size_t axis = 0; axis < 3; ++axis) all.lo[axis] = std::min(all.lo[axis], both.lo[axis]), all.hi[axis] = std::max(all.hi[axis], both.hi[axis]);
+    }
+    return all;
+}
+
+// The volume's scan region in slabs of layers on every core, joined in z order: the same as one
+// pass. Outside the region lie only boundary voxels that nearest_voxels leaves out, and no overlap.
 BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>& batch) {
-    const int layers = both.grid().dims[2];
-    const int slabs = std::min(layers, 16), per = (layers + slabs - 1) / slabs;
+    const Region region = scan_region(both.grid(), batch);
+    const int z_first = region.lo[2], layers = std::max(0, region.hi[2] - region.lo[2] + 1);
+    const int slabs = std::min(layers, 16), per = slabs > 0 ? (layers + slabs - 1) / slabs : 0;
     std::vector<std::optional<BatchScan>> parts(static_cast<std::size_t>(slabs));
-    parallel_for(std::size_t(slabs), [&](std::size_t s) { parts[s] = scan_slab(both, n, batch, int(s) * per, std::min(layers, int(s + 1) * per)); });
+    parallel_for(std::size_t(slabs), [&](std::size_t s) {
+        parts[s] = scan_slab(both, n, batch, region, z_first + int(s) * per, z_first + std::min(layers, int(s + 1) * per));
+    });
     BatchScan scan(n);
     for (const auto& part : parts)
         if (part) scan.append_counts(*part);
@@ -274,9 +295,12 @@ std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<i
         if (between.norm() > 1e-9) check.apart = between.normalized();
         Pending p{&check, placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b), {}, {}};
         p.box_a = p.a.bounds(), p.box_b = p.b.bounds();
-        // Boxes farther apart than the reach: neither overlap nor a gap to measure.
+        // Boxes farther apart than the reach of nearest_voxels: neither overlap nor a gap to
+        // measure. (A gap is the voxel centres' distance less one voxel, and a surface-rule voxel's
+        // centre may lie outside its mesh's box: boxes up to kGapReach + 2 voxels apart can hold
+        // a gap within kGapReach.)
         const Vec3 separation = (p.box_a.min - p.box_b.max).cwiseMax(p.box_b.min - p.box_a.max).cwiseMax(0.0);
-        if (separation.norm() > kGapReach) continue;
+        if (separation.norm() > kGapReach + 2 * voxel) continue;
         batch.push_back(std::move(p));
         if (batch.size() == kBatch) decide_batch(batch, voxel, voxeliser);
     }
