@@ -792,7 +792,6 @@ TEST(FrameCheck, NearestVoxelsIsTheBruteForceMinimum) {
     }
 }
 
-
 // The brute-force answer of the frame check for one output frame: both bodies voxelised on one
 // grid by the CPU reference, their shared voxels counted, and with none, the nearest pair of their
 // surface voxels (an occupied voxel with an empty 6-neighbour) by trying every pair.

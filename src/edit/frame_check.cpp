@@ -27,6 +27,12 @@ struct Boundary {
     bool kdtree_get_bbox(Box&) const { return false; }
 };
 
+// How far from a body's box the gap's search looks: a gap is the voxel centres' distance less one
+// voxel, so centres up to kGapReach and a voxel apart count, and a surface-rule voxel's centre may
+// lie up to a voxel outside its mesh's box. The search, the scan's region and the frames skipped
+// all use this one reach.
+double gap_search_reach(double voxel) { return kGapReach + 2 * voxel; }
+
 // Voxel index bounds [lo, hi] of the grid's voxels within `reach` of `box` (where a body's voxel
 // can be nearest to the other body, when the gap is within reach).
 struct Region {
@@ -104,7 +110,7 @@ namespace detail {
 // those alone, and the queries are asked nearest-box first until their bound reaches the answer.
 double nearest_voxels(const VoxelGrid& grid, const std::vector<std::array<double, 3>>& boundary_a, const std::vector<std::array<double, 3>>& boundary_b,
                       const Box3& box_a, const Box3& box_b) {
-    const double reach = kGapReach + 2 * grid.voxel;
+    const double reach = gap_search_reach(grid.voxel);
     const Boundary a = within(boundary_a, near_box(grid, box_b, reach)), b = within(boundary_b, near_box(grid, box_a, reach));
     if (a.points.empty() || b.points.empty()) return std::numeric_limits<double>::infinity();
     const Boundary& indexed = a.points.size() <= b.points.size() ? a : b;
@@ -212,7 +218,7 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
 // other's box (nearest_voxels), and an overlap lies in both boxes, so both within each box's
 // reach. The box of those regions over the batch's frames (first > last on an axis: none).
 Region scan_region(const VoxelGrid& grid, const std::vector<Pending>& batch) {
-    const double reach = kGapReach + 2 * grid.voxel;
+    const double reach = gap_search_reach(grid.voxel);
     Region all{{grid.dims[0], grid.dims[1], grid.dims[2]}, {-1, -1, -1}};
     for (const Pending& p : batch) {
         const Region a = near_box(grid, p.box_a, reach), b = near_box(grid, p.box_b, reach);
@@ -295,12 +301,9 @@ std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<i
         if (between.norm() > 1e-9) check.apart = between.normalized();
         Pending p{&check, placed_mesh(edit, k, 0, a), placed_mesh(edit, k, 1, b), {}, {}};
         p.box_a = p.a.bounds(), p.box_b = p.b.bounds();
-        // Boxes farther apart than the reach of nearest_voxels: neither overlap nor a gap to
-        // measure. (A gap is the voxel centres' distance less one voxel, and a surface-rule voxel's
-        // centre may lie outside its mesh's box: boxes up to kGapReach + 2 voxels apart can hold
-        // a gap within kGapReach.)
+        // Boxes farther apart than the gap's search reaches: neither overlap nor a gap to measure.
         const Vec3 separation = (p.box_a.min - p.box_b.max).cwiseMax(p.box_b.min - p.box_a.max).cwiseMax(0.0);
-        if (separation.norm() > kGapReach + 2 * voxel) continue;
+        if (separation.norm() > gap_search_reach(voxel)) continue;
         batch.push_back(std::move(p));
         if (batch.size() == kBatch) decide_batch(batch, voxel, voxeliser);
     }
