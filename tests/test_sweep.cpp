@@ -824,17 +824,18 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
             }
             EXPECT_EQ(longest, expected_longest) << degrees;
             // Ordered by map pass: the same runs grouped stably by pass, with each pass's first.
-            // Nine passes need z itself where a key's last five bits are zero.
-            for (const int passes : {5, 9}) {
+            // Nine passes need z itself where a key's last five bits are zero; z counts from the
+            // phase (past 32 the phase's low bits alone would give other passes).
+            for (const MapPasses passes : {MapPasses{5, 0}, MapPasses{9, 0}, MapPasses{5, 13}, MapPasses{9, 37}}) {
                 std::vector<SliceRun> by_pass{{7, 7, 7, 7}};
                 std::vector<std::size_t> pass_first;
                 append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, by_pass, passes, &pass_first);
-                ASSERT_EQ(pass_first.size(), std::size_t(passes) + 1);
+                ASSERT_EQ(pass_first.size(), std::size_t(passes.count) + 1);
                 std::size_t at = 1;
-                for (int pass = 0; pass < passes; ++pass) {
+                for (int pass = 0; pass < passes.count; ++pass) {
                     ASSERT_EQ(pass_first[std::size_t(pass)], at) << degrees << " pass " << pass;
                     for (std::size_t r = 1; r < runs.size(); ++r) {
-                        if (map_pass_of((runs[r].key - key_base) % zbits, runs[r].y, passes) != pass) continue;
+                        if (map_pass_of((runs[r].key - key_base) % zbits - passes.z_phase, runs[r].y, passes.count) != pass) continue;
                         ASSERT_LT(at, by_pass.size());
                         ASSERT_EQ(by_pass[at].key, runs[r].key) << degrees << " pass " << pass;
                         ASSERT_EQ(by_pass[at].y, runs[r].y) << degrees << " pass " << pass;
@@ -847,6 +848,27 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
             }
         }
     }
+}
+
+// The map passes start at the slice where both volumes hold the most voxels together: here slice
+// 40 (the fixed side half full, the moving side full) beats slice 7 (full, a quarter full) and
+// slice 50 (full on the fixed side only).
+TEST(Sweep, MapPassesStartAtTheDensestSharedSlice) {
+    ColumnVolume fixed = blank_columns(0, 0, 48, 40, 1, 2), moving = blank_columns(-6, 3, 48, 40, 1, 2);
+    const auto set = [](ColumnVolume& volume, int z, int rows) {
+        for (int y = 0; y < rows; ++y)
+            for (int x = 0; x < volume.nx; ++x) volume.column(x, y)[std::size_t(z / 32)] |= 1u << (z % 32);
+    };
+    set(fixed, 7, 40), set(fixed, 40, 20), set(fixed, 50, 40);
+    set(moving, 7, 10), set(moving, 40, 40), set(moving, 3, 40);
+    fixed.finish();
+    moving.finish();
+    EXPECT_EQ(densest_shared_slice(fixed_runs(fixed, {0}), sparse_columns(moving, {0})), 40);
+    // Nothing shared: the passes count from z = 0, as before.
+    ColumnVolume apart = blank_columns(0, 0, 48, 40, 1, 2);
+    set(apart, 60, 40);
+    apart.finish();
+    EXPECT_EQ(densest_shared_slice(fixed_runs(fixed, {0}), sparse_columns(apart, {0})), 0);
 }
 
 // Fixed runs carry, per key, the box of its runs, each row's hull (first x_first to last x_last),

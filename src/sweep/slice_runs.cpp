@@ -119,28 +119,29 @@ RowStretch stretch_in_box(std::int32_t gy, std::int32_t gx_first, std::int32_t g
     return stretch;
 }
 
-// map_pass_of for a run with key `key` (z = key % zbits): zbits is a multiple of 32, so z's last
-// five bits are the key's, and they alone settle it unless all five are zero and more than six
-// passes are asked for (a division per run was a tenth of the time of ordering runs by pass).
-int map_pass_of_run(std::int32_t key, int zbits, int y, int passes) {
-    const std::uint32_t low = std::uint32_t(key) & 31u;
-    const int z = low != 0u || passes <= 6 ? int(low) : key % zbits;
-    return map_pass_of(z, y, passes);
+// The pass of a run with key `key` (z = key % zbits): zbits is a multiple of 32, so the last five
+// bits of z - z_phase are those of key - z_phase, and they alone settle it unless all five are
+// zero and more than six passes are asked for (a division per run was a tenth of the time of
+// ordering runs by pass).
+int map_pass_of_run(std::int32_t key, int zbits, int y, const MapPasses& passes) {
+    const std::uint32_t low = std::uint32_t(key - passes.z_phase) & 31u;
+    const int z = low != 0u || passes.count <= 6 ? int(low) : key % zbits - passes.z_phase;
+    return map_pass_of(z, y, passes.count);
 }
 
 // The counting sort of pulled runs into (map pass, key) order: `first` gets each bucket's count
 // (at its index + 1) as runs are emitted, then each bucket's first place, then each run's place.
 class RunBuckets {
 public:
-    RunBuckets(std::vector<std::uint32_t>& first, int passes, int zbits, std::size_t key_count, std::int32_t key_base)
+    RunBuckets(std::vector<std::uint32_t>& first, const MapPasses& passes, int zbits, std::size_t key_count, std::int32_t key_base)
         : first_(first), passes_(passes), zbits_(zbits), key_count_(key_count), key_base_(key_base) {
-        first_.assign(std::size_t(passes) * key_count + 1, 0u);
+        first_.assign(std::size_t(passes.count) * key_count + 1, 0u);
     }
     std::size_t buckets() const { return first_.size() - 1; }
     // The bucket of a run with key `key` on row y.
     std::size_t of(std::int32_t key, std::int32_t y) const {
         const std::size_t in_angle = std::size_t(key - key_base_);
-        return passes_ == 1 ? in_angle : std::size_t(map_pass_of_run(key, zbits_, y, passes_)) * key_count_ + in_angle;
+        return passes_.count == 1 ? in_angle : std::size_t(map_pass_of_run(key, zbits_, y, passes_)) * key_count_ + in_angle;
     }
     void start_row(std::int32_t y) { y_ = y; }
     void count(std::int32_t key) { ++first_[of(key, y_) + 1]; }
@@ -153,7 +154,8 @@ public:
 
 private:
     std::vector<std::uint32_t>& first_;
-    int passes_, zbits_;
+    MapPasses passes_;
+    int zbits_;
     std::size_t key_count_;
     std::int32_t key_base_, y_ = 0;
 };
@@ -311,6 +313,25 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
     return result;
 }
 
+int densest_shared_slice(const FixedRuns& fixed, const SparseColumns& moving) {
+    constexpr std::size_t kColumnStride = 16;
+    const std::size_t zbits = std::size_t(fixed.zbits);
+    if (zbits == 0 || moving.volume == nullptr || 32 * std::size_t(moving.volume->zwords) != zbits) return 0;
+    std::vector<double> fixed_voxels(zbits, 0.0), moving_voxels(zbits, 0.0);
+    for (const SliceRun& run : fixed.runs) fixed_voxels[std::size_t(run.key) % zbits] += double(run.x_last - run.x_first + 1);
+    const std::size_t zwords = std::size_t(moving.volume->zwords);
+    for (std::size_t c = 0; c + 1 < moving.first.size(); c += kColumnStride)
+        for (std::uint32_t e = moving.first[c]; e < moving.first[c + 1]; ++e) {
+            const SparseColumns::Entry& entry = moving.entries[e];
+            const std::size_t base = 32 * (std::size_t(entry.word) % zwords);
+            for (std::uint32_t bits = entry.bits; bits != 0u; bits &= bits - 1u) moving_voxels[base + std::size_t(std::countr_zero(bits))] += 1.0;
+        }
+    std::size_t best = 0;
+    for (std::size_t z = 1; z < zbits; ++z)
+        if (fixed_voxels[z] * moving_voxels[z] > fixed_voxels[best] * moving_voxels[best]) best = z;
+    return int(best);
+}
+
 SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots) {
     check_lattice(moving.x0, moving.y0, moving.nx, moving.ny);
     for (const int slot : slots)
@@ -336,14 +357,14 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
-                       std::vector<SliceRun>& out, int passes, std::vector<std::size_t>* pass_first, const RunFilter* keep,
+                       std::vector<SliceRun>& out, MapPasses passes, std::vector<std::size_t>* pass_first, const RunFilter* keep,
                        std::size_t* cut_count) {
     const ColumnVolume& moving = *sparse.volume;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
     if (clips.size() != sparse.slots.size()) fail("sweep", "internal: {} clips for {} slots", clips.size(), sparse.slots.size());
-    if (passes < 1) fail("sweep", "internal: {} map passes", passes);
+    if (passes.count < 1) fail("sweep", "internal: {} map passes", passes.count);
     // One pass over the union of the slots' mapped boxes within their clips: each A column is
     // mapped once and reads the non-zero words of every slot from its B column. Outside a slot's
     // own box its words are zero, and outside its clip they are skipped, so the runs are those of
@@ -395,8 +416,8 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     buckets.accumulate();
     const std::size_t base = out.size();
     if (pass_first) {
-        pass_first->resize(std::size_t(passes) + 1);
-        for (int p = 0; p <= passes; ++p) (*pass_first)[std::size_t(p)] = base + buckets.first_of_pass(p);
+        pass_first->resize(std::size_t(passes.count) + 1);
+        for (int p = 0; p <= passes.count; ++p) (*pass_first)[std::size_t(p)] = base + buckets.first_of_pass(p);
     }
     out.resize(base + visited.size());
     for (const SliceRun& run : visited) out[base + buckets.place(run)] = run;

@@ -235,7 +235,7 @@ void SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batc
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
     const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     scratch.longest = append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, scratch.by_pass,
-                                         passes, &scratch.pass_first, open ? &in_play : nullptr, &scratch.cut);
+                                         MapPasses{passes, test.z_phase}, &scratch.pass_first, open ? &in_play : nullptr, &scratch.cut);
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those

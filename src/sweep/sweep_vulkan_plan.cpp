@@ -160,7 +160,7 @@ void SweepRun::plan_maps() {
     std::vector<int> every_frame(static_cast<std::size_t>(frames_));
     for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
     auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want, int needed = 0) {
-        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, nullptr, nullptr, {}, needed};
+        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, 0, nullptr, nullptr, {}, needed};
     };
     auto map_of = [&](const OverlapTest& test) {
         std::vector<int> slots{0};
@@ -201,6 +201,7 @@ void SweepRun::plan_maps() {
     parallel_for(tests.size(), [&](std::size_t k) {
         tests[k]->runs = fixed_runs(*tests[k]->fixed, tests[k]->slots);
         tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);
+        tests[k]->z_phase = densest_shared_slice(tests[k]->runs, tests[k]->moving_words);
     });
     for (MapTest* test : tests) prepare_map(*test);
 }

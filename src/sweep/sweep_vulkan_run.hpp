@@ -113,6 +113,7 @@ struct MapTest {
     FixedRuns runs;
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
+    int z_phase = 0;             // MapPasses::z_phase of its pulled runs (densest_shared_slice)
     std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     std::vector<AngleScratch> angles;  // per angle of the batch: its pulled runs (SweepRun::cut_angles)
     int needed = 0;
