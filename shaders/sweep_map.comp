@@ -24,11 +24,15 @@ struct Run {
 };
 // Packed to halve the loads: (y, x_first | x_last << 16), relative to (fixed_x0, fixed_y0); sorted
 // by key, then y.
-layout(std430, set = 0, binding = 0) readonly buffer FixedRuns { uvec2 fixed_runs[]; };
+// Read as texels: two per run.
+layout(set = 0, binding = 0) uniform usamplerBuffer fixed_runs;
 layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_keys[]; };  // per key: first run, count
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
 // [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
 layout(std430, set = 0, binding = 3) buffer Maps { uint maps[]; };
+// The same maps read through the sampler path, which lavapipe gathers for all lanes at once (a
+// storage load runs lane by lane): a stale word only costs an atomic that sets nothing new.
+layout(set = 0, binding = 4) uniform usamplerBuffer map_texels;
 
 layout(push_constant) uniform Params {
     uint item_base;
@@ -39,7 +43,12 @@ layout(push_constant) uniform Params {
     // 1: one map per slot pair (every-frame tests); 0: one map for all.
     int map_per_slot;
     int fixed_x0, fixed_y0, pulled_x0;
+    // Words the texel view covers (the device's texel limit may be below the maps' size).
+    uint texel_words;
 } params;
+
+// Word w of the maps as far as the texel view shows it; past the view, none of its bits.
+uint seen(uint w) { return w < params.texel_words ? texelFetch(map_texels, int(w)).x : 0u; }
 
 void main() {
     uint item = params.item_base + gl_GlobalInvocationID.x;
@@ -56,7 +65,7 @@ void main() {
     int lo = key.x, hi = key.x + key.y;
     while (lo < hi) {
         int mid = (lo + hi) >> 1;
-        if (int(fixed_runs[mid].x) < y_first) lo = mid + 1;
+        if (int(texelFetch(fixed_runs, 2 * mid).x) < y_first) lo = mid + 1;
         else hi = mid;
     }
     int first = lo + chunk * params.runs_per_chunk;
@@ -64,7 +73,7 @@ void main() {
     int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
     uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
     for (int r = first; r < last; ++r) {
-        uvec2 a = fixed_runs[r];
+        uvec2 a = uvec2(texelFetch(fixed_runs, 2 * r).x, texelFetch(fixed_runs, 2 * r + 1).x);
         int a_y = int(a.x);
         if (a_y > y_last) break;
         int j = a_y + params.fixed_y0 - b.y - params.range_j0;
@@ -78,9 +87,9 @@ void main() {
         uint w_lo = row + uint(lo >> 5), w_hi = row + uint(hi >> 5);
         uint lo_mask = 0xffffffffu << uint(lo & 31), hi_mask = 0xffffffffu >> uint(31 - (hi & 31));
         if (w_lo == w_hi) lo_mask &= hi_mask;
-        if ((maps[w_lo] & lo_mask) != lo_mask) atomicOr(maps[w_lo], lo_mask);
+        if ((seen(w_lo) & lo_mask) != lo_mask) atomicOr(maps[w_lo], lo_mask);
         for (uint w = w_lo + 1u; w < w_hi; ++w)
-            if (maps[w] != 0xffffffffu) atomicOr(maps[w], 0xffffffffu);
-        if (w_hi != w_lo && (maps[w_hi] & hi_mask) != hi_mask) atomicOr(maps[w_hi], hi_mask);
+            if (seen(w) != 0xffffffffu) atomicOr(maps[w], 0xffffffffu);
+        if (w_hi != w_lo && (seen(w_hi) & hi_mask) != hi_mask) atomicOr(maps[w_hi], hi_mask);
     }
 }

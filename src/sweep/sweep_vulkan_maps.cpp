@@ -363,11 +363,12 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), &pulled_.device(), &map_words_.device()}));
+        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
+        const std::uint64_t texel_words = std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements);
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
-                               test.pulled_x0};
+                               test.pulled_x0, std::uint32_t(std::min<std::uint64_t>(texel_words, 0xffffffffu))};
         tools_.stats.work_items += items;
         sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
     }

@@ -46,6 +46,7 @@ struct MapParams {
     std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
     std::int32_t map_per_slot;
     std::int32_t fixed_x0, fixed_y0, pulled_x0;
+    std::uint32_t texel_words;
 };
 static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
