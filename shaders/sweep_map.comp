@@ -24,7 +24,7 @@ struct Run {
 };
 // Packed to halve the loads: (y, x_first | x_last << 16), relative to (fixed_x0, fixed_y0); sorted
 // by key, then y.
-// Read as texels: two per run.
+// Read as texels, one (y, x) per run.
 layout(set = 0, binding = 0) uniform usamplerBuffer fixed_runs;
 layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_keys[]; };  // per key: first run, count
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
@@ -65,7 +65,7 @@ void main() {
     int lo = key.x, hi = key.x + key.y;
     while (lo < hi) {
         int mid = (lo + hi) >> 1;
-        if (int(texelFetch(fixed_runs, 2 * mid).x) < y_first) lo = mid + 1;
+        if (int(texelFetch(fixed_runs, mid).x) < y_first) lo = mid + 1;
         else hi = mid;
     }
     int first = lo + chunk * params.runs_per_chunk;
@@ -73,7 +73,7 @@ void main() {
     int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
     uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
     for (int r = first; r < last; ++r) {
-        uvec2 a = uvec2(texelFetch(fixed_runs, 2 * r).x, texelFetch(fixed_runs, 2 * r + 1).x);
+        uvec2 a = texelFetch(fixed_runs, r).xy;
         int a_y = int(a.x);
         if (a_y > y_last) break;
         int j = a_y + params.fixed_y0 - b.y - params.range_j0;

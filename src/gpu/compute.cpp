@@ -198,14 +198,16 @@ BoundBuffers Kernel::bind(const std::vector<const Buffer*>& buffers) {
             infos[i] = vk::DescriptorBufferInfo{.buffer = b.handle(), .offset = 0, .range = b.size()};
             continue;
         }
-        const bool wide = bindings_[i] == Binding::Texels128;
-        const vk::DeviceSize texel = wide ? 16 : 4;
+        const vk::DeviceSize texel = bindings_[i] == Binding::Texels128 ? 16 : bindings_[i] == Binding::Texels64 ? 8 : 4;
+        const vk::Format format = bindings_[i] == Binding::Texels128 ? vk::Format::eR32G32B32A32Sint
+                                  : bindings_[i] == Binding::Texels64 ? vk::Format::eR32G32Uint
+                                                                      : vk::Format::eR32Uint;
         // Callers keep what a shader reads within the limit (the voxeliser sizes its batches by
         // it); a buffer may be larger than what is read, so the view covers at most the limit.
         const vk::DeviceSize texels = std::min<vk::DeviceSize>(b.size() / texel, context_.selected().max_texel_buffer_elements);
         bound.views.emplace_back(context_.device(), vk::BufferViewCreateInfo{
                                                         .buffer = b.handle(),
-                                                        .format = wide ? vk::Format::eR32G32B32A32Sint : vk::Format::eR32Uint,
+                                                        .format = format,
                                                         .offset = 0,
                                                         .range = texels * texel});
         view_handles[i] = *bound.views.back();

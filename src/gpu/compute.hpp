@@ -57,6 +57,7 @@ std::unique_ptr<Buffer> upload_for_kernels(Context& context, const void* data, s
 enum class Binding {
     Storage,    // layout(std430) buffer
     Texels32,   // uniform usamplerBuffer: one uint per texel
+    Texels64,   // uniform usamplerBuffer: one uvec2 per texel (in .xy)
     Texels128,  // uniform isamplerBuffer: one ivec4 per texel
 };
 

@@ -20,7 +20,7 @@ VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
     : context_(context),
       options_(options),
       overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
-      map_(context, sweep_map_spv, {Binding::Texels32, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Texels32}, sizeof(MapParams),
+      map_(context, sweep_map_spv, {Binding::Texels64, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Texels32}, sizeof(MapParams),
            {kWorkgroup}) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }

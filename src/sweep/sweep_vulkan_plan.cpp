@@ -211,9 +211,9 @@ void SweepRun::prepare_map(MapTest& test) {
     if (test.fixed->nx > 0xffff || test.fixed->ny > 0xffff)
         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel", test.fixed->nx,
              test.fixed->ny);
-    // The map kernel reads the fixed runs as texels, two to a run.
-    if (2 * test.runs.runs.size() > tools_.context.selected().max_texel_buffer_elements)
-        fail("key segment", "{} slice runs are more than the device's texel buffers hold ({} texels, two a run); use a larger voxel",
+    // The map kernel reads the fixed runs as texels, one a run.
+    if (test.runs.runs.size() > tools_.context.selected().max_texel_buffer_elements)
+        fail("key segment", "{} slice runs are more than the device's texel buffers hold ({} texels, one a run); use a larger voxel",
              test.runs.runs.size(), tools_.context.selected().max_texel_buffer_elements);
     // Pulled runs are cut to pulled_clips, which start here or later for every angle and row.
     test.pulled_x0 = std::int32_t(test.fixed->x0) + test.fixed->x_first - range_.i_last;
