@@ -850,6 +850,41 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
     }
 }
 
+// A sparse copy holds, column by column, every non-zero word of the asked slots, whatever part of
+// the volume their boxes cover (only the boxes' columns are read).
+TEST(Sweep, SparseColumnsHoldEveryNonZeroWordOfTheSlots) {
+    std::mt19937 random(29);
+    ColumnVolume volume = blank_columns(3, -8, 37, 29, 4, 2);
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < volume.nx; ++x)
+            for (std::size_t w = 0; w < volume.column_words(); ++w) {
+                const int slot = int(w) / volume.zwords;
+                // Each slot in its own box (slot 2 empty), words sparse within it.
+                const bool inside = slot == 0 || (slot == 1 && x >= 5 && x <= 20 && y >= 3 && y <= 11) || (slot == 3 && x >= 14 && y >= 17);
+                if (inside && random() % 3 == 0) volume.column(x, y)[w] = std::uint32_t(random()) | 1u;
+            }
+    volume.finish();
+    for (const std::vector<int>& slots : {std::vector<int>{0, 1, 2, 3}, std::vector<int>{1}, std::vector<int>{3, 1}, std::vector<int>{2}}) {
+        const SparseColumns sparse = sparse_columns(volume, slots);
+        ASSERT_EQ(sparse.first.size(), std::size_t(volume.nx) * std::size_t(volume.ny) + 1);
+        std::vector<SparseColumns::Entry> expected;
+        for (std::size_t c = 0; c + 1 < sparse.first.size(); ++c) {
+            ASSERT_EQ(sparse.first[c], expected.size()) << "column " << c;
+            const std::uint32_t* column = volume.bits.data() + c * volume.column_words();
+            for (std::size_t s = 0; s < slots.size(); ++s)
+                for (int w = 0; w < volume.zwords; ++w)
+                    if (const std::uint32_t bits = column[std::size_t(slots[s] * volume.zwords + w)]; bits != 0u)
+                        expected.push_back({bits, std::int32_t(s) * volume.zwords + w});
+        }
+        EXPECT_EQ(sparse.first.back(), expected.size());
+        ASSERT_EQ(sparse.entries.size(), expected.size());
+        for (std::size_t e = 0; e < expected.size(); ++e) {
+            EXPECT_EQ(sparse.entries[e].bits, expected[e].bits) << e;
+            EXPECT_EQ(sparse.entries[e].word, expected[e].word) << e;
+        }
+    }
+}
+
 // The map passes start at the slice where both volumes hold the most voxels together: here slice
 // 40 (the fixed side half full, the moving side full) beats slice 7 (full, a quarter full) and
 // slice 50 (full on the fixed side only).

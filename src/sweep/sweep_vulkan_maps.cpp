@@ -273,10 +273,7 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
     return pairs;
 }
 
-// Every-frame maps (one per slot, ANDed) decide nothing before the last pass: one pass.
-int SweepRun::map_passes(const MapTest& test) const {
-    return test.want != Want::Frames ? std::clamp(tools_.options.map_passes, 1, 16) : 1;
-}
+int SweepRun::map_passes(const MapTest&) const { return std::clamp(tools_.options.map_passes, 1, 16); }
 
 void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const {
     if (test.angles.size() < std::size_t(batch_angles)) test.angles.resize(std::size_t(batch_angles));
@@ -344,7 +341,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         }
         pulled_.copy_to_device(sequence_, total_runs * sizeof(PulledRun));
         dispatch_map_pass(test, total_runs, longest, map_bytes);
-        if (pass + 1 < passes) close_decided_poses(batch_angles, open, open_rows);
+        if (pass + 1 < passes) close_decided_poses(test, batch_angles, open, open_rows);
     }
     return read_map(test, batch_angles);
 }
@@ -379,34 +376,6 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
     ++tools_.stats.submits;
 }
 
-// After a pass: poses with an overlap found are decided (one map per angle here); the box in play
-// shrinks to the poses still open. Angles on all cores.
-void SweepRun::close_decided_poses(int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
-    const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
-    if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        Band& band = open_rows[a];
-        Band still{height_, -1, width_, -1};
-        for (int j = band[0]; j <= band[1]; ++j) {
-            std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
-            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
-            // Word by word (whole words in a loop the compiler vectorises); outside the band the
-            // row holds no pose in play, so clearing there changes nothing.
-            for (int w = band[2] >> 5; w <= band[3] >> 5; ++w) {
-                const std::uint32_t missed = ~row[w];
-                std::uint8_t* word_open = row_open + w * 32;
-                if (w * 32 + 32 <= width_) {
-                    keep_flags(missed, word_open);
-                } else {
-                    for (int b = 0; b < width_ - w * 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
-                }
-            }
-            widen_by_flags(still, row_open, j, band[2], band[3]);
-        }
-        band = still;
-    });
-}
-
 namespace {
 
 // Bit i set where at least `needed` of the `maps` words (`stride` apart from `first`) have bit i.
@@ -420,7 +389,48 @@ std::uint32_t frames_at_least(const std::uint32_t* first, int maps, std::size_t 
     return out;
 }
 
+// Bit i set where the poses of map word `first` (of an angle's `maps` maps, `stride` apart) show
+// the overlap the test looks for: in one map, its bit; in every-frame maps, in at least `needed`
+// of them (ANDed when all are needed).
+std::uint32_t overlap_found(const MapTest& test, const std::uint32_t* first, int maps, std::size_t stride) {
+    if (test.want == Want::Frames && test.needed < maps) return frames_at_least(first, maps, stride, test.needed);
+    std::uint32_t bits = first[0];
+    for (int m = 1; m < maps; ++m) bits &= first[std::size_t(m) * stride];
+    return bits;
+}
+
 }  // namespace
+
+// After a pass: poses where the overlap the test looks for is found are decided (it can only grow
+// with the passes left: an overlap test passes, a "must not meet" test fails, an every-frame test
+// has its frames); the box in play shrinks to the poses still open. Angles on all cores.
+void SweepRun::close_decided_poses(const MapTest& test, int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
+    const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
+    const int maps = test.maps_per_angle();
+    const std::size_t stride = std::size_t(height_) * std::size_t(row_words_);
+    if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        Band& band = open_rows[a];
+        Band still{height_, -1, width_, -1};
+        for (int j = band[0]; j <= band[1]; ++j) {
+            std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            // Word by word (whole words in a loop the compiler vectorises); outside the band the
+            // row holds no pose in play, so clearing there changes nothing.
+            for (int w = band[2] >> 5; w <= band[3] >> 5; ++w) {
+                const std::uint32_t missed = ~(maps == 1 ? row[w] : overlap_found(test, row + w, maps, stride));
+                std::uint8_t* word_open = row_open + w * 32;
+                if (w * 32 + 32 <= width_) {
+                    keep_flags(missed, word_open);
+                } else {
+                    for (int b = 0; b < width_ - w * 32; ++b) word_open[b] &= std::uint8_t((missed >> b) & 1u);
+                }
+            }
+            widen_by_flags(still, row_open, j, band[2], band[3]);
+        }
+        band = still;
+    });
+}
 
 // Per pose of the batch, whether it meets the test: Frames, set in at least `needed` of the slots'
 // maps (in every one when all are needed); otherwise the one map's bit says it.
@@ -434,12 +444,7 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
             std::uint8_t* out = meets.data() + a * per_angle_ + std::size_t(j) * std::size_t(width_);
             const std::uint32_t* row = words + (a * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
             for (int w = 0; w < row_words_; ++w) {
-                std::uint32_t bits = row[w];
-                if (test.want == Want::Frames && test.needed < maps) {
-                    bits = frames_at_least(row + w, maps, std::size_t(height_) * std::size_t(row_words_), test.needed);
-                } else {
-                    for (int m = 1; m < maps; ++m) bits &= row[std::size_t(m) * std::size_t(height_) * std::size_t(row_words_) + std::size_t(w)];
-                }
+                const std::uint32_t bits = overlap_found(test, row + w, maps, std::size_t(height_) * std::size_t(row_words_));
                 if (w * 32 + 32 <= width_) {
                     write_flags(bits, when_set == 0, out + w * 32);
                 } else {
