@@ -379,13 +379,25 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
 namespace {
 
 // Bit i set where at least `needed` of the `maps` words (`stride` apart from `first`) have bit i.
+// The 32 counts go eight to a 64-bit word, one byte each, a map word added with four lookups of
+// kFlagsOfByte (up to 255 maps; more are counted bit by bit).
 std::uint32_t frames_at_least(const std::uint32_t* first, int maps, std::size_t stride, int needed) {
     std::uint32_t out = 0;
-    for (int i = 0; i < 32; ++i) {
-        int count = 0;
-        for (int m = 0; m < maps && count < needed; ++m) count += (first[std::size_t(m) * stride] >> i) & 1u;
-        if (count >= needed) out |= 1u << i;
+    if (maps > 255) {
+        for (int i = 0; i < 32; ++i) {
+            int count = 0;
+            for (int m = 0; m < maps && count < needed; ++m) count += (first[std::size_t(m) * stride] >> i) & 1u;
+            if (count >= needed) out |= 1u << i;
+        }
+        return out;
     }
+    std::array<std::uint64_t, 4> counts{};
+    for (int m = 0; m < maps; ++m) {
+        const std::uint32_t word = first[std::size_t(m) * stride];
+        for (int part = 0; part < 4; ++part) counts[std::size_t(part)] += kFlagsOfByte[(word >> (8 * part)) & 0xffu];
+    }
+    for (int i = 0; i < 32; ++i)
+        if (int((counts[std::size_t(i / 8)] >> (8 * (i % 8))) & 0xffu) >= needed) out |= 1u << i;
     return out;
 }
 
