@@ -850,8 +850,8 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
     }
 }
 
-// A sparse copy holds, column by column, every non-zero word of the asked slots, whatever part of
-// the volume their boxes cover (only the boxes' columns are read).
+// A sparse copy holds, column by column, every non-zero word of the asked slots (and only those),
+// whatever part of the volume each slot's box covers.
 TEST(Sweep, SparseColumnsHoldEveryNonZeroWordOfTheSlots) {
     std::mt19937 random(29);
     ColumnVolume volume = blank_columns(3, -8, 37, 29, 4, 2);

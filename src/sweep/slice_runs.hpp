@@ -75,7 +75,7 @@ int map_pass_of(int z, int y, int passes);
 // `z_phase` (a run at slice z goes to map_pass_of(z - z_phase, y, count)). The sweep puts the
 // slice where both volumes are densest first: the first pass then holds few runs and still
 // settles most poses in contact. Counted from z = 0, a sword 4 slices thick at 10 mm fell
-// wholly in the third pass with four times the rows, and contact paired 3.7 times the runs.
+// wholly in the third pass with four times the rows, and contact made 3.7 times the run pairs.
 struct MapPasses {
     int count = 1;
     int z_phase = 0;

@@ -273,11 +273,12 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
     return pairs;
 }
 
-int SweepRun::map_passes(const MapTest&) const { return std::clamp(tools_.options.map_passes, 1, 16); }
+// Every map, every-frame maps too (close_decided_poses), goes in the same passes.
+int SweepRun::map_passes() const { return std::clamp(tools_.options.map_passes, 1, 16); }
 
 void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const {
     if (test.angles.size() < std::size_t(batch_angles)) test.angles.resize(std::size_t(batch_angles));
-    const int passes = map_passes(test);
+    const int passes = map_passes();
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
         cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, open ? open->data() + a * per_angle_ : nullptr, test.angles[a]);
     });
@@ -293,7 +294,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     // Pulled runs' x is packed in 16 bits relative to pulled_x0.
     const std::int64_t x_span = std::int64_t(test.fixed->x_last - test.fixed->x_first) + width_;
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
-    const int passes = map_passes(test);
+    const int passes = map_passes();
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
     std::vector<std::uint8_t>& open = open_scratch_;
     if (candidates) open = *candidates;
@@ -361,11 +362,12 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
         set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
-        const std::uint64_t texel_words = std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements);
+        // The words the maps' texel view covers (Kernel::bind cuts it to the device's limit).
+        const std::uint32_t texel_words = std::uint32_t(std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements));
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
-                               test.pulled_x0, std::uint32_t(std::min<std::uint64_t>(texel_words, 0xffffffffu))};
+                               test.pulled_x0, texel_words};
         tools_.stats.work_items += items;
         sequence_.dispatch(tools_.map, *set, params, std::uint32_t(items));
     }

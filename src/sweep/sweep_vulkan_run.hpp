@@ -243,7 +243,7 @@ private:
     // Cuts the pulled runs of every angle of the batch into test.angles, on all cores; with
     // `open` (per pose of the batch), only those that reach a pose in play.
     void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const;
-    int map_passes(const MapTest& test) const;
+    int map_passes() const;
     // Decides `test` for every pose of the batch (implicit order) with an overlap map (`runs_cut`:
     // test.angles holds the batch's runs already).
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
