@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv::gpu {
 
@@ -180,6 +182,18 @@ Kernel::Kernel(Context& context, std::span<const std::uint32_t> spirv, std::vect
         .stage = {.stage = vk::ShaderStageFlagBits::eCompute, .module = *module, .pName = "main", .pSpecializationInfo = &spec},
         .layout = *pipeline_layout_};
     pipeline_ = vk::raii::Pipeline(context.device(), nullptr, info);
+}
+
+std::vector<Kernel> make_kernels(Context& context, const std::vector<KernelSpec>& specs) {
+    std::vector<std::optional<Kernel>> built(specs.size());
+    parallel_for(specs.size(), [&](std::size_t k) {
+        const KernelSpec& spec = specs[k];
+        built[k].emplace(context, spec.spirv, spec.bindings, spec.push_constant_bytes, spec.specialisation);
+    });
+    std::vector<Kernel> kernels;
+    kernels.reserve(specs.size());
+    for (std::optional<Kernel>& kernel : built) kernels.push_back(std::move(*kernel));
+    return kernels;
 }
 
 BoundBuffers Kernel::bind(const std::vector<const Buffer*>& buffers) {

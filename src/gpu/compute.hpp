@@ -93,6 +93,18 @@ private:
     vk::raii::Pipeline pipeline_;
 };
 
+// What a Kernel is built from, so that several can be built at once (make_kernels).
+struct KernelSpec {
+    std::span<const std::uint32_t> spirv;
+    std::vector<Binding> bindings;
+    std::uint32_t push_constant_bytes;
+    std::vector<std::uint32_t> specialisation;
+};
+
+// Builds `specs` on all cores, in their order. lavapipe compiles a pipeline with LLVM on the
+// calling thread: the voxeliser's six took 0.2 s on one core, a serial step of every command.
+std::vector<Kernel> make_kernels(Context& context, const std::vector<KernelSpec>& specs);
+
 class Sequence;
 
 // A buffer that the host and kernels both use. With staged transfers it is a device-local buffer

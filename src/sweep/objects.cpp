@@ -1,6 +1,7 @@
 #include "src/sweep/objects.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -134,6 +135,89 @@ SweepObject build_sweep_object(const std::string& name, const std::vector<Object
     return object;
 }
 
+namespace {
+
+// One view cone rasterised column by column on `grid`: a voxel is in the cone when its centre is.
+class ConeColumns {
+public:
+    ConeColumns(const ViewCone& cone, const VoxelGrid& grid)
+        : cone_(cone), grid_(grid), axis_(cone.gaze.normalized()), cos_half_(std::cos(angles::radians(cone.half_angle_deg))) {}
+
+    // The column's span of voxels in the cone ({1, 0}: none).
+    std::array<int, 2> span(int x, int y) const {
+        // The cone (half angle <= 90 degrees) and the range ball are convex, so each vertical column
+        // meets them in one interval of heights t = z - eye.z. Its ends are roots of
+        //   (az^2 - c^2) t^2 + 2 p az t + (p^2 - c^2 r^2) = 0      (along^2 = c^2 length^2)
+        // or of t^2 = range^2 - r^2, so the column is split at those roots and each piece tested at
+        // its middle; the voxel ends are then settled by the predicate itself. Each column's interval
+        // is found without visiting its voxels (the region often holds 10^8 at 1 cm).
+        const double h = grid_.voxel, c2 = cos_half_ * cos_half_;
+        const double z_low = grid_.origin.z() + 0.5 * h - cone_.eye.z(), z_high = z_low + (grid_.dims[2] - 1) * h;
+        const Vec3 base = grid_.centre(x, y, 0) - cone_.eye;
+        const double r2 = base.x() * base.x() + base.y() * base.y();
+        const double p = base.x() * axis_.x() + base.y() * axis_.y(), az = axis_.z();
+        Cuts cuts;
+        cuts.add(z_low), cuts.add(z_high);  // the column's ends, then the roots below
+        cuts.add_roots(az * az - c2, 2 * p * az, p * p - c2 * r2);
+        if (az != 0) cuts.add(-p / az);  // where `along` changes sign
+        if (cone_.range > 0) cuts.add_roots(1, 0, r2 - cone_.range * cone_.range);
+        std::sort(cuts.at.begin(), cuts.at.begin() + cuts.count);
+        double t_first = 1, t_last = 0;  // the union of the inside pieces (one interval)
+        for (int i = 0; i + 1 < cuts.count; ++i) {
+            const double a = std::max(cuts.at[std::size_t(i)], z_low), b = std::min(cuts.at[std::size_t(i) + 1], z_high);
+            const double t = 0.5 * (a + b);
+            if (a > b || !accepts(p + az * t, std::sqrt(r2 + t * t))) continue;
+            if (t_first > t_last) t_first = a;
+            t_last = b;
+        }
+        if (t_first > t_last) return {1, 0};
+        // Settle the ends voxel by voxel with the predicate; an interval that falls between
+        // two centres starts empty (first = last + 1) and is settled the same way.
+        int first = std::clamp(int(std::ceil((t_first - z_low) / h)), 0, grid_.dims[2]);
+        int last = std::clamp(int(std::floor((t_last - z_low) / h)), first - 1, grid_.dims[2] - 1);
+        while (first > 0 && inside(x, y, first - 1)) --first;
+        while (last + 1 < grid_.dims[2] && inside(x, y, last + 1)) ++last;
+        while (first <= last && !inside(x, y, first)) ++first;
+        while (last >= first && !inside(x, y, last)) --last;
+        return {first, last};
+    }
+
+private:
+    // The column's cut heights: its two ends and at most five roots.
+    struct Cuts {
+        std::array<double, 8> at{};
+        int count = 0;
+        void add(double t) { at[std::size_t(count++)] = t; }
+        void add_roots(double qa, double qb, double qc) {  // qa t^2 + qb t + qc = 0
+            if (std::abs(qa) < 1e-12) {
+                if (qb != 0) add(-qc / qb);
+                return;
+            }
+            const double disc = qb * qb - 4 * qa * qc;
+            if (disc < 0) return;
+            const double root = std::sqrt(disc);
+            add((-qb - root) / (2 * qa));
+            add((-qb + root) / (2 * qa));
+        }
+    };
+    // A point at `length` from the eye, `along` of it along the gaze, is in the cone.
+    bool accepts(double along, double length) const {
+        return length > 0 && along >= cos_half_ * length && (cone_.range <= 0 || length <= cone_.range);
+    }
+    // A voxel is in the cone when its centre is: the one predicate every voxel decision uses.
+    bool inside(int x, int y, int z) const {
+        const Vec3 d = grid_.centre(x, y, z) - cone_.eye;
+        return accepts(d.dot(axis_), d.norm());
+    }
+
+    const ViewCone& cone_;
+    const VoxelGrid& grid_;
+    const Vec3 axis_;
+    const double cos_half_;
+};
+
+}  // namespace
+
 ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double voxel) {
     // The grid on the lattice covering `region` (no margin needed: it is already generous).
     VoxelGrid grid;
@@ -148,67 +232,15 @@ ConeVolume view_cone_volume(const ViewCone& cone, const Box3& region, double vox
     ConeVolume out;
     out.grid = grid;
     out.spans.assign(std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]), {1, 0});
-    const Vec3 axis = cone.gaze.normalized();
-    const double cos_half = std::cos(angles::radians(cone.half_angle_deg));
-    // A point at `length` from the eye, `along` of it along the gaze, is in the cone.
-    auto accepts = [&](double along, double length) {
-        return length > 0 && along >= cos_half * length && (cone.range <= 0 || length <= cone.range);
-    };
-    // A voxel is in the cone when its centre is: the one predicate every voxel decision uses.
-    auto inside = [&](int x, int y, int z) {
-        Vec3 d = grid.centre(x, y, z) - cone.eye;
-        return accepts(d.dot(axis), d.norm());
-    };
-    // The cone (half angle <= 90 degrees) and the range ball are convex, so each vertical column
-    // meets them in one interval of heights t = z - eye.z. Its ends are roots of
-    //   (az^2 - c^2) t^2 + 2 p az t + (p^2 - c^2 r^2) = 0      (along^2 = c^2 length^2)
-    // or of t^2 = range^2 - r^2, so the column is split at those roots and each piece tested at
-    // its middle; the voxel ends are then settled by the predicate itself. Each column's interval
-    // is found without visiting its voxels (the region often holds 10^8 at 1 cm).
-    const double h = grid.voxel, c2 = cos_half * cos_half;
-    const double z_low = grid.origin.z() + 0.5 * h - cone.eye.z(), z_high = z_low + (grid.dims[2] - 1) * h;
-    std::vector<double> cuts;  // reused by every column: at most 7 cuts
-    cuts.reserve(7);
-    for (int y = 0; y < grid.dims[1]; ++y)
+    // Rows on every core, each writing its own columns (the region's columns were a serial step of
+    // every segment's volumes).
+    const ConeColumns columns(cone, grid);
+    parallel_for(std::size_t(grid.dims[1]), [&](std::size_t y) {
         for (int x = 0; x < grid.dims[0]; ++x) {
-            const Vec3 base = grid.centre(x, y, 0) - cone.eye;
-            const double r2 = base.x() * base.x() + base.y() * base.y();
-            const double p = base.x() * axis.x() + base.y() * axis.y(), az = axis.z();
-            cuts.assign({z_low, z_high});  // the column's ends, then the roots below
-            auto add_roots = [&](double qa, double qb, double qc) {  // qa t^2 + qb t + qc = 0
-                if (std::abs(qa) < 1e-12) {
-                    if (qb != 0) cuts.push_back(-qc / qb);
-                    return;
-                }
-                double disc = qb * qb - 4 * qa * qc;
-                if (disc < 0) return;
-                double root = std::sqrt(disc);
-                cuts.push_back((-qb - root) / (2 * qa));
-                cuts.push_back((-qb + root) / (2 * qa));
-            };
-            add_roots(az * az - c2, 2 * p * az, p * p - c2 * r2);
-            if (az != 0) cuts.push_back(-p / az);  // where `along` changes sign
-            if (cone.range > 0) add_roots(1, 0, r2 - cone.range * cone.range);
-            std::sort(cuts.begin(), cuts.end());
-            double t_first = 1, t_last = 0;  // the union of the inside pieces (one interval)
-            for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
-                double a = std::max(cuts[i], z_low), b = std::min(cuts[i + 1], z_high);
-                const double t = 0.5 * (a + b);
-                if (a > b || !accepts(p + az * t, std::sqrt(r2 + t * t))) continue;
-                if (t_first > t_last) t_first = a;
-                t_last = b;
-            }
-            if (t_first > t_last) continue;
-            // Settle the ends voxel by voxel with the predicate; an interval that falls between
-            // two centres starts empty (first = last + 1) and is settled the same way.
-            int first = std::clamp(int(std::ceil((t_first - z_low) / h)), 0, grid.dims[2]);
-            int last = std::clamp(int(std::floor((t_last - z_low) / h)), first - 1, grid.dims[2] - 1);
-            while (first > 0 && inside(x, y, first - 1)) --first;
-            while (last + 1 < grid.dims[2] && inside(x, y, last + 1)) ++last;
-            while (first <= last && !inside(x, y, first)) ++first;
-            while (last >= first && !inside(x, y, last)) --last;
-            if (first <= last) out.spans[std::size_t(y) * std::size_t(grid.dims[0]) + std::size_t(x)] = {first, last};
+            const std::array<int, 2> span = columns.span(x, int(y));
+            if (span[0] <= span[1]) out.spans[y * std::size_t(grid.dims[0]) + std::size_t(x)] = {span[0], span[1]};
         }
+    });
     return out;
 }
 

@@ -17,11 +17,16 @@ namespace amhv::gpu {
 using namespace sweep_detail;
 
 VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options)
-    : context_(context),
-      options_(options),
-      overlap_(context, sweep_overlap_spv, 8, sizeof(OverlapParams), {kWorkgroup, std::uint32_t(kMaxFrameWords)}),
-      map_(context, sweep_map_spv, {Binding::Texels64, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Texels32}, sizeof(MapParams),
-           {kWorkgroup}) {}
+    : VulkanSweeper(context, options,
+                    make_kernels(context, {{sweep_overlap_spv, std::vector<Binding>(8, Binding::Storage), sizeof(OverlapParams),
+                                            {kWorkgroup, std::uint32_t(kMaxFrameWords)}},
+                                           {sweep_map_spv,
+                                            {Binding::Texels64, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Texels32},
+                                            sizeof(MapParams),
+                                            {kWorkgroup}}})) {}
+
+VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options, std::vector<Kernel> kernels)
+    : context_(context), options_(options), overlap_(std::move(kernels.at(0))), map_(std::move(kernels.at(1))) {}
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 

@@ -79,6 +79,9 @@ public:
     static constexpr int kMaxFrameWords = 16;  // PER_FRAME tests handle up to 512 frames
 
 private:
+    // `kernels`: sweep_overlap.comp, then sweep_map.comp, built (make_kernels).
+    VulkanSweeper(Context& context, SweeperOptions options, std::vector<Kernel> kernels);
+
     Context& context_;
     SweeperOptions options_;
     Kernel overlap_;

@@ -91,15 +91,26 @@ struct VulkanVoxeliser::HostScratch {
 VulkanVoxeliser::~VulkanVoxeliser() = default;
 
 VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options)
+    : VulkanVoxeliser(context, options, make_kernels(context, kernel_specs(options))) {}
+
+// In the members' order: the raster, then voxelise_columns.comp's stages FLIP_SMALL (0),
+// FLIP_MEDIUM (4), FLIP_LARGE (1), FLIP_HUGE (2) and WRITE (3).
+std::vector<KernelSpec> VulkanVoxeliser::kernel_specs(const VoxeliserOptions& options) {
+    std::vector<KernelSpec> specs{{voxelise_raster_spv, {Binding::Texels128, Binding::Storage, Binding::Storage}, sizeof(RasterParams), {kWorkgroup}}};
+    for (const std::uint32_t stage : {0u, 4u, 1u, 2u, 3u})
+        specs.push_back({voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, stage}});
+    return specs;
+}
+
+VulkanVoxeliser::VulkanVoxeliser(Context& context, VoxeliserOptions options, std::vector<Kernel> kernels)
     : context_(context),
       options_(options),
-      raster_(context, voxelise_raster_spv, {Binding::Texels128, Binding::Storage, Binding::Storage}, sizeof(RasterParams),
-              {kWorkgroup}),
-      flip_small_(context, voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 0u}),
-      flip_medium_(context, voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 4u}),
-      flip_large_(context, voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 1u}),
-      flip_huge_(context, voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 2u}),
-      write_columns_(context, voxelise_columns_spv, column_bindings(), sizeof(ColumnParams), {kWorkgroup, options.max_column_crossings, 3u}),
+      raster_(std::move(kernels.at(0))),
+      flip_small_(std::move(kernels.at(1))),
+      flip_medium_(std::move(kernels.at(2))),
+      flip_large_(std::move(kernels.at(3))),
+      flip_huge_(std::move(kernels.at(4))),
+      write_columns_(std::move(kernels.at(5))),
       host_(std::make_unique<HostScratch>()) {}
 
 std::string VulkanVoxeliser::name() const { return "vulkan:" + context_.selected().name; }

@@ -69,6 +69,9 @@ public:
 
 private:
     class Call;  // one call of voxelise_solid, as named steps
+    // `kernels`: kernel_specs(options), built.
+    VulkanVoxeliser(Context& context, VoxeliserOptions options, std::vector<Kernel> kernels);
+    static std::vector<KernelSpec> kernel_specs(const VoxeliserOptions& options);
     Context& context_;
     VoxeliserOptions options_;
     Kernel raster_;
