@@ -906,6 +906,63 @@ TEST(Sweep, MapPassesStartAtTheDensestSharedSlice) {
     EXPECT_EQ(densest_shared_slice(fixed_runs(fixed, {0}), sparse_columns(apart, {0})), 0);
 }
 
+// Pulled runs cut to each slot's and z word's clip (word_clips) make the same overlap map on the
+// clips' range of offsets as uncut runs, with fewer pulled voxels where the fixed volume's words
+// lie in different places (here: its low word on the left, its high word on the right).
+TEST(Sweep, WordClipsGiveTheSameMapOnTheirRange) {
+    std::mt19937 random(41);
+    ColumnVolume fixed = blank_columns(-20, 5, 50, 36, 3, 2), moving = blank_columns(-45, -12, 44, 40, 3, 2);
+    // Each slot's low word a blob on the left, its high word one on the right; sparse bits in B.
+    for (std::size_t w = 0; w < fixed.column_words(); ++w)
+        for (int y = 0; y < 3; ++y)
+            for (int x = 0; x < 3; ++x) fixed.column(w % 2 == 0 ? 2 + x : 40 + x, w % 2 == 0 ? 3 + y : 25 + y)[w] = 0x00200400u;
+    for (std::uint32_t& word : moving.bits)
+        if (random() % 24 == 0) word = 0x00200400u & std::uint32_t(random());
+    fixed.finish();
+    moving.finish();
+    const std::vector<int> slots{0, 2};
+    const FixedRuns runs = fixed_runs(fixed, slots);
+    const SparseColumns sparse = sparse_columns(moving, slots);
+    const int i_first = -9, i_last = 14, j_first = -6, j_last = 11, width = i_last - i_first + 1, height = j_last - j_first + 1;
+    const std::array<std::int64_t, 2> root_a{posemap::quantise_root(1.4), posemap::quantise_root(20.2)};
+    const std::array<std::int64_t, 2> root_b{posemap::quantise_root(-24.7), posemap::quantise_root(6.1)};
+    // The map on the range from pairs of runs at the same key, and how many voxels the runs hold.
+    const auto map_of = [&](const std::vector<SliceRun>& pulled) {
+        std::vector<std::uint8_t> map(std::size_t(width) * std::size_t(height), 0);
+        for (const SliceRun& b : pulled) {
+            const auto [first, count] = runs.by_key[std::size_t(b.key)];
+            for (std::int32_t r = first; r < first + count; ++r) {
+                const SliceRun& a = runs.runs[std::size_t(r)];
+                const int j = a.y - b.y;
+                if (j < j_first || j > j_last) continue;
+                for (int i = std::max(i_first, a.x_first - b.x_last); i <= std::min(i_last, a.x_last - b.x_first); ++i)
+                    map[std::size_t(j - j_first) * std::size_t(width) + std::size_t(i - i_first)] = 1;
+            }
+        }
+        return map;
+    };
+    const auto voxels = [](const std::vector<SliceRun>& pulled) {
+        std::size_t n = 0;
+        for (const SliceRun& r : pulled) n += std::size_t(r.x_last - r.x_first + 1);
+        return n;
+    };
+    const SlotClips everywhere(slots.size(), {-1000, -1000, 1000, 1000});
+    const SlotClips words = word_clips(runs, i_first, i_last, j_first, j_last);
+    ASSERT_EQ(words.size(), slots.size() * 2);
+    for (const double degrees : {0.0, 31.0, 144.5, 270.0}) {
+        const posemap::Trig trig = posemap::quantise_rotation(degrees * std::numbers::pi / 180.0);
+        std::vector<SliceRun> all, clipped;
+        append_pulled_runs(sparse, trig, root_a, root_b, 0, everywhere, all);
+        append_pulled_runs(sparse, trig, root_a, root_b, 0, words, clipped);
+        const std::vector<std::uint8_t> expected = map_of(all);
+        EXPECT_EQ(map_of(clipped), expected) << degrees;
+        const auto set = std::size_t(std::count(expected.begin(), expected.end(), 1));
+        EXPECT_GT(set, 10u) << degrees;
+        EXPECT_LT(set, expected.size()) << degrees;
+        EXPECT_LT(voxels(clipped), voxels(all) * 3 / 4) << degrees;
+    }
+}
+
 // Fixed runs carry, per key, the box of its runs, each row's hull (first x_first to last x_last),
 // and per level L the hull of 2^L rows from each row on (cut short at the key's last row): the
 // pruning of pulled runs tests 2^L rows of poses at once with them.

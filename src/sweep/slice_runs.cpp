@@ -206,8 +206,10 @@ void add_window_hulls(FixedRuns& result) {
 // column index kIndexAhead columns ahead and the words kWordsAhead ahead are prefetched.
 class RowCut {
 public:
-    // `clips`: per slot index, the A columns its words are kept in (null: all).
-    RowCut(const SparseColumns& sparse, const SlotClips* clips) : sparse_(sparse), moving_(*sparse.volume), clips_(clips) {}
+    // `clips`: per slot index (or per slot index and word, `per_word`), the A columns its words
+    // are kept in (null: all).
+    RowCut(const SparseColumns& sparse, const SlotClips* clips, bool per_word)
+        : sparse_(sparse), moving_(*sparse.volume), clips_(clips), per_word_(per_word) {}
 
     void walk(std::int32_t gy, const RowStretch& stretch, RowRuns& row) const {
         posemap::Step at = stretch.at, index_ahead = ahead(at, kIndexAhead), words_ahead = ahead(at, kWordsAhead);
@@ -240,7 +242,7 @@ private:
         for (std::uint32_t e = sparse_.first[c]; e < sparse_.first[c + 1]; ++e) {
             const SparseColumns::Entry& entry = sparse_.entries[e];
             if (clips_) {
-                const auto& clip = (*clips_)[std::size_t(entry.word / moving_.zwords)];
+                const auto& clip = (*clips_)[std::size_t(per_word_ ? entry.word : entry.word / moving_.zwords)];
                 if (gx < clip[0] || gx > clip[2] || gy < clip[1] || gy > clip[3]) continue;
             }
             row.add(entry.word, entry.bits);
@@ -250,6 +252,7 @@ private:
     const SparseColumns& sparse_;
     const ColumnVolume& moving_;
     const SlotClips* clips_;
+    bool per_word_;
 };
 
 }  // namespace
@@ -310,6 +313,15 @@ FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) 
         }
     }
     add_window_hulls(result);
+    result.word_boxes.assign(result.by_key.size() / 32, {1, 1, 0, 0});
+    for (std::size_t k = 0; k < result.key_boxes.size(); ++k) {
+        const auto& key = result.key_boxes[k];
+        if (key[0] > key[1]) continue;
+        auto& word = result.word_boxes[k / 32];
+        word = word[0] > word[2] ? std::array<std::int32_t, 4>{key[0], key[2], key[1], key[3]}
+                                 : std::array<std::int32_t, 4>{std::min(word[0], key[0]), std::min(word[1], key[2]), std::max(word[2], key[1]),
+                                                               std::max(word[3], key[3])};
+    }
     return result;
 }
 
@@ -363,7 +375,20 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
-    if (clips.size() != sparse.slots.size()) fail("sweep", "internal: {} clips for {} slots", clips.size(), sparse.slots.size());
+    const bool per_word = clips.size() == sparse.slots.size() * std::size_t(moving.zwords) && moving.zwords > 1;
+    if (clips.size() != sparse.slots.size() && !per_word)
+        fail("sweep", "internal: {} clips for {} slots of {} words", clips.size(), sparse.slots.size(), moving.zwords);
+    // Each slot's clip (the union of its words' where they are given): its columns lie within.
+    const auto slot_clip = [&](std::size_t s) {
+        if (!per_word) return clips[s];
+        std::array<std::int32_t, 4> box{1, 1, 0, 0};
+        for (int w = 0; w < moving.zwords; ++w) {
+            const auto& c = clips[s * std::size_t(moving.zwords) + std::size_t(w)];
+            if (c[0] > c[2] || c[1] > c[3]) continue;
+            box = box[0] > box[2] ? c : std::array<std::int32_t, 4>{std::min(box[0], c[0]), std::min(box[1], c[1]), std::max(box[2], c[2]), std::max(box[3], c[3])};
+        }
+        return box;
+    };
     if (passes.count < 1) fail("sweep", "internal: {} map passes", passes.count);
     // One pass over the union of the slots' mapped boxes within their clips: each A column is
     // mapped once and reads the non-zero words of every slot from its B column. Outside a slot's
@@ -374,12 +399,12 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     bool clipped = false;  // whether some slot's clip is narrower than the box
     for (std::size_t s = 0; s < sparse.slots.size(); ++s) {
         auto b = mapped_bounds(moving, moving.slot_boxes[std::size_t(sparse.slots[s])], trig, root_a, root_b);
-        const auto& c = clips[s];
+        const auto c = slot_clip(s);
         b = {std::max(b[0], c[0]), std::max(b[1], c[1]), std::min(b[2], c[2]), std::min(b[3], c[3])};
         if (b[0] > b[2] || b[1] > b[3]) continue;
         box = {std::min(box[0], b[0]), std::min(box[1], b[1]), std::max(box[2], b[2]), std::max(box[3], b[3])};
     }
-    for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];
+    for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];  // an empty clip too
     // The slots' occupied columns in B's global lattice: every non-zero word lies in their box.
     std::array<std::int64_t, 4> source_box{std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::max(),
                                            std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::min()};
@@ -403,7 +428,7 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     RowRuns& row = *row_runs;
     row.count_into(&buckets);
     row.filter_by(keep);
-    const RowCut cut(sparse, clipped ? &clips : nullptr);
+    const RowCut cut(sparse, clipped ? &clips : nullptr, per_word);
     for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
         const RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
         if (stretch.first > stretch.last) continue;
@@ -422,6 +447,19 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     out.resize(base + visited.size());
     for (const SliceRun& run : visited) out[base + buckets.place(run)] = run;
     return longest;
+}
+
+SlotClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last) {
+    SlotClips clips;
+    clips.reserve(fixed.word_boxes.size());
+    for (const auto& box : fixed.word_boxes) {
+        if (box[0] > box[2] || box[1] > box[3] || i_first > i_last || j_first > j_last) {
+            clips.push_back({1, 1, 0, 0});
+            continue;
+        }
+        clips.push_back({box[0] - i_last, box[1] - j_last, box[2] - i_first, box[3] - j_first});
+    }
+    return clips;
 }
 
 SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last) {

@@ -41,6 +41,9 @@ struct FixedRuns {
     // poses covers 2^L rows.
     static constexpr int kHullLevels = 7;
     std::vector<std::vector<std::array<std::int32_t, 2>>> window_hulls;
+    // Per slot index and z word (key / 32): the box of the runs of its 32 keys ([x_first, y_first,
+    // x_last, y_last], global; empty: first > last), what word_clips cuts pulled runs to.
+    std::vector<std::array<std::int32_t, 4>> word_boxes;
 };
 
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots);
@@ -60,7 +63,8 @@ struct SparseColumns {
 
 SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots);
 
-// Per slot index, a box of A columns ([x_first, y_first, x_last, y_last], global A lattice).
+// Per slot index, or per slot index and z word (slot_index * zwords + word), a box of A columns
+// ([x_first, y_first, x_last, y_last], global A lattice).
 using SlotClips = std::vector<std::array<std::int32_t, 4>>;
 
 // The overlap-map pass of the runs at z slice `z` and row `y` out of `passes`: coarse to fine in
@@ -98,8 +102,8 @@ protected:
 };
 
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
-// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs cut to
-// its box in `clips`, and only those `keep` keeps (all when null; `cut`, where given, gets how many
+// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs (or
+// each slot's and z word's, when `clips` holds one box per word) cut to its box in `clips`, and only those `keep` keeps (all when null; `cut`, where given, gets how many
 // were cut before it chose). The appended runs are sorted by map pass (of `passes`), then key,
 // then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first
 // run (and one more at the end). Returns the longest run appended.
@@ -113,5 +117,10 @@ int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, c
 // so g lies in the slot's occupied box shifted by minus those offsets. Runs cut to these boxes give
 // the same map.
 SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last);
+
+// The same per slot index and z word, from the fixed runs' word_boxes: a word's box holds only the
+// runs of its 32 slices, so the clips of a body's slices are far narrower than its slot's (the
+// runs cut give the same map on those offsets).
+SlotClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last);
 
 }  // namespace amhv
