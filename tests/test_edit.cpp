@@ -834,13 +834,46 @@ CheckedFrame check_by_brute_force(const MeshFrame& a, const MeshFrame& b, double
     return checked;
 }
 
+// frames.csv's rows (frame, ..., overlap, ..., gap) against the brute force on the edit's own
+// transforms; returns how many frames overlap, have a gap, and lie beyond the reach.
+std::array<int, 3> expect_frames_match_brute_force(const fs::path& scene_file, const fs::path& out, const std::string& what) {
+    const Scene scene = load_scene(scene_file);
+    ObjectSource a(scene.a), b(scene.b);
+    const auto transforms = read_json(out / "transforms.json").at("output");
+    std::istringstream rows(read_text(out / "frames.csv"));
+    std::string row;
+    std::getline(rows, row);
+    std::array<int, 3> cases{};
+    int checked = 0;
+    const auto whole = [](const std::string&) { return true; };
+    while (std::getline(rows, row)) {
+        std::vector<std::string> cells;
+        std::stringstream cut(row);
+        for (std::string cell; std::getline(cut, cell, ',');) cells.push_back(cell);
+        if (cells.size() == 4) cells.emplace_back();  // no gap: the line ends in a comma
+        EXPECT_EQ(cells.size(), 5u) << row;
+        if (cells.size() != 5) continue;
+        const auto& frame = transforms.at(std::size_t(std::stoi(cells[0])));
+        const CheckedFrame truth = check_by_brute_force(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole),
+                                                        scene.sampling.voxel);
+        EXPECT_EQ(cells[2], std::to_string(truth.overlap)) << what << ": " << row;
+        EXPECT_EQ(cells[4], truth.gap_mm) << what << ": " << row;
+        ++checked;
+        cases[0] += truth.overlap > 0;
+        cases[1] += truth.overlap == 0 && !truth.gap_mm.empty();
+        cases[2] += truth.gap_mm.empty();
+    }
+    EXPECT_EQ(checked, 40) << what << ": one row per output frame";
+    return cases;
+}
+
 // Every output frame of edits whose B walks through A and away at four speeds (kept, with
 // --allow-transition-overlap) against the brute force: the check voxelises batches of frames on
 // one grid and scans only where the two bodies' reaches meet, and must give the same overlaps and
 // gaps, from touching to beyond the reach (at 10 cm a frame, one frame's boxes lie just beyond the
 // reach while its gap is within it).
 TEST(FrameCheck, EveryFrameMatchesTheBruteForce) {
-    int overlapping = 0, with_gap = 0, beyond = 0;
+    std::array<int, 3> cases{};
     for (const double speed : {0.08, 0.1, 0.12, 0.15}) {
         FixtureWalks walks;
         walks.a = [](int) { return Eigen::Vector2d(0, 0); };
@@ -850,36 +883,36 @@ TEST(FrameCheck, EveryFrameMatchesTheBruteForce) {
         auto run = test::run_amhv(fmt::format("edit {} --allow-transition-overlap --no-frames --no-glb --no-page --no-timings --out '{}'",
                                               fixture.quoted(), out.string()));
         ASSERT_EQ(run.exit_code, 0) << run.output;
-        const Scene scene = load_scene(fixture.scene);
-        ObjectSource a(scene.a), b(scene.b);
-        const auto transforms = read_json(out / "transforms.json").at("output");
-        std::istringstream rows(read_text(out / "frames.csv"));
-        std::string row;
-        std::getline(rows, row);
-        int checked = 0;
-        const auto whole = [](const std::string&) { return true; };
-        while (std::getline(rows, row)) {
-            std::vector<std::string> cells;
-            std::stringstream cut(row);
-            for (std::string cell; std::getline(cut, cell, ',');) cells.push_back(cell);
-            if (cells.size() == 4) cells.emplace_back();  // no gap: the line ends in a comma
-            ASSERT_EQ(cells.size(), 5u) << row;
-            const auto& frame = transforms.at(std::size_t(std::stoi(cells[0])));
-            const CheckedFrame truth = check_by_brute_force(test::moved_parts(a, frame.at("A"), whole), test::moved_parts(b, frame.at("B"), whole),
-                                                            scene.sampling.voxel);
-            EXPECT_EQ(cells[2], std::to_string(truth.overlap)) << speed << " m a frame: " << row;
-            EXPECT_EQ(cells[4], truth.gap_mm) << speed << " m a frame: " << row;
-            ++checked;
-            overlapping += truth.overlap > 0;
-            with_gap += truth.overlap == 0 && !truth.gap_mm.empty();
-            beyond += truth.gap_mm.empty();
-        }
-        EXPECT_EQ(checked, 40) << "one row per output frame";
+        const std::array<int, 3> these = expect_frames_match_brute_force(fixture.scene, out, fmt::format("{} m a frame", speed));
+        for (std::size_t c = 0; c < 3; ++c) cases[c] += these[c];
     }
     // The walks give every case: frames inside each other, near, and out of reach.
-    EXPECT_GE(overlapping, 20);
-    EXPECT_GE(with_gap, 6);
-    EXPECT_GE(beyond, 10);
+    EXPECT_GE(cases[0], 20);
+    EXPECT_GE(cases[1], 6);
+    EXPECT_GE(cases[2], 10);
+}
+
+// The same walk separated: the rounds' checks that find the bodies inside each other leave their
+// other frames' gaps unmeasured (Gaps::UntilAnOverlap), and the check reported, the last round's,
+// must still give every frame's gap.
+TEST(FrameCheck, SeparatedFramesKeepTheirGaps) {
+    FixtureWalks walks;
+    walks.a = [](int) { return Eigen::Vector2d(0, 0); };
+    walks.b = [](int f) { return Eigen::Vector2d(0, f < 30 ? 0.0 : 0.1 * (f - 29)); };
+    EditFixture fixture("0&0a", "prefer = { distance_m = 0.6, thetaA_deg = 0.0, thetaB_deg = 0.0 }", 0, walks);
+    const fs::path out = fixture.dir.path() / "out";
+    auto run = test::run_amhv(fmt::format("edit {} --no-frames --no-glb --no-page --no-timings --out '{}'", fixture.quoted(), out.string()));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const auto transitions = read_json(out / "result.json").at("transitions");
+    int rounds = 0;
+    for (const auto& t : transitions) {
+        rounds += t.at("separation_rounds").get<int>();
+        EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << transitions.dump();
+    }
+    EXPECT_GE(rounds, 1) << "the walk must need separating: " << transitions.dump();
+    // The key segment's hands share voxels; every other frame has its gap.
+    const std::array<int, 3> cases = expect_frames_match_brute_force(fixture.scene, out, "separated");
+    EXPECT_GE(cases[1], 6) << "frames near each other, with a gap";
 }
 
 }  // namespace

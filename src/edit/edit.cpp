@@ -384,7 +384,10 @@ TransitionCheck separate_transition(const SeparationContext& c, int s, const Edi
             if (p.timeline_segment == s) sum += p.root_cost + p.facing_cost;
         return sum;
     };
-    checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser);
+    // A check that finds an overlap is followed by another round, or the transition is stuck: its
+    // gaps are never reported (with overlap allowed, the first check is the one reported).
+    const Gaps gaps = options.allow_transition_overlap ? Gaps::Every : Gaps::UntilAnOverlap;
+    checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser, gaps);
     tally(t.overlapping_before, t.max_overlap_before);
     t.smoothness_before = t.smoothness = smoothness();
     const double w_a = c.scene.weights.w_a, w_b = c.scene.weights.w_b;
@@ -402,7 +405,7 @@ TransitionCheck separate_transition(const SeparationContext& c, int s, const Edi
         if (!any) break;
         for (PathReport& p : r.paths)
             if (p.timeline_segment == s) p = optimise_transition(seg, s, p.object, c.weights, r, targets[std::size_t(p.object)]);
-        checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser);
+        checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser, gaps);
     }
     tally(t.overlapping, t.max_overlap);
     t.smoothness = smoothness();

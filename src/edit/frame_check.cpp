@@ -257,7 +257,9 @@ BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>
     return scan;
 }
 
-void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxeliser) {
+// Voxelises and scans the batch; then each frame's gap, unless `skip_gaps` (a frame of this call
+// overlaps: see Gaps::UntilAnOverlap), which becomes true when one of the batch's frames overlaps.
+void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxeliser, bool& skip_gaps, Gaps gaps) {
     if (batch.empty()) return;
     const std::size_t n = batch.size();
     Box3 all;
@@ -273,6 +275,7 @@ void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxelise
     const VoxelGrid grid = grid_covering(all, voxel, fmt::format("output frames {}..{}", batch.front().check->frame, batch.back().check->frame));
     const Amhv both = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
     const BatchScan scan = scan_batch(both, n, batch);
+    for (std::size_t f = 0; f < n; ++f) skip_gaps |= gaps == Gaps::UntilAnOverlap && batch[f].check->overlap > 0;
     // Each frame's gap on its own (frames write only their own check).
     parallel_for(n, [&](std::size_t f) {
         FrameCheck& check = *batch[f].check;
@@ -281,6 +284,7 @@ void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxelise
             check.depth_m = scan.high[f] - scan.low[f] + voxel;
             return;
         }
+        if (skip_gaps) return;
         const double centres = detail::nearest_voxels(grid, scan.boundary[f], scan.boundary[n + f], batch[f].box_a, batch[f].box_b) * voxel;
         if (centres - voxel <= kGapReach) check.gap_m = std::max(0.0, centres - voxel);
     });
@@ -290,9 +294,10 @@ void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxelise
 }  // namespace
 
 std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<int>& frames, ObjectSource& a, ObjectSource& b, double voxel,
-                                     Voxeliser& voxeliser) {
+                                     Voxeliser& voxeliser, Gaps gaps) {
     std::vector<FrameCheck> checks(frames.size());
     std::vector<Pending> batch;
+    bool skip_gaps = false;
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const int k = frames[i];
         FrameCheck& check = checks[i];
@@ -305,9 +310,9 @@ std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<i
         const Vec3 separation = (p.box_a.min - p.box_b.max).cwiseMax(p.box_b.min - p.box_a.max).cwiseMax(0.0);
         if (separation.norm() > gap_search_reach(voxel)) continue;
         batch.push_back(std::move(p));
-        if (batch.size() == kBatch) decide_batch(batch, voxel, voxeliser);
+        if (batch.size() == kBatch) decide_batch(batch, voxel, voxeliser, skip_gaps, gaps);
     }
-    decide_batch(batch, voxel, voxeliser);
+    decide_batch(batch, voxel, voxeliser, skip_gaps, gaps);
     return checks;
 }
 

@@ -12,9 +12,14 @@
 
 namespace amhv {
 
+// Which frames get their gap measured. A separation round's check that finds the bodies inside
+// each other is followed by another round (or the transition is stuck): its gaps are never
+// reported, so once one frame overlaps the others' gaps may be left unmeasured (empty).
+enum class Gaps { Every, UntilAnOverlap };
+
 // Checks output frames `frames` of `edit` at edge `voxel`.
 std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<int>& frames, ObjectSource& a, ObjectSource& b, double voxel,
-                                     Voxeliser& voxeliser);
+                                     Voxeliser& voxeliser, Gaps gaps = Gaps::Every);
 
 namespace detail {
 // The smallest distance, in voxels, between a voxel centre of `boundary_a` and one of `boundary_b`
