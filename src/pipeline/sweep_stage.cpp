@@ -1,6 +1,7 @@
 #include "src/pipeline/sweep_stage.hpp"
 
 #include <chrono>
+#include <future>
 #include <iostream>
 
 #include <unistd.h>
@@ -210,16 +211,24 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     files.frames = options.frames;
     files.mesh_files = options.frames ? write_scene_frames(out / "frames", edit, a, b) : 0;
     files.obj_files = options.frames ? write_obj_frames(out / "frames", edit, a, b) : 0;
-    if (options.glb) {
-        const SceneGlbReport glb = write_scene_glb(out / "scene.glb", edit, a, b, scene.a.fps);
-        files.glb = true;
-        files.glb_bytes = glb.bytes;
-        files.glb_fps = scene.a.fps;
-    }
+    // scene.glb is written on a thread of its own beside the pictures (which use both object
+    // sources and every core): its meshes are gathered first, and the rest is one thread's work.
+    const std::vector<GlbObject> glb_objects{{"A", &a, &edit.frames[0]}, {"B", &b, &edit.frames[1]}};
+    std::future<SceneGlbReport> glb;
+    if (options.glb)
+        glb = std::async(std::launch::async, [&out, &glb_objects, meshes = gather_glb_meshes(glb_objects), fps = scene.a.fps] {
+            return write_scene_glb(out / "scene.glb", glb_objects, meshes, fps);
+        });
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
     files.view_frames = write_key_views(out / "views", edit, a, b);
     write_eye_views(out / "views", scene, edit, a, b);
     files.bvh = write_edited_bvh(out, edit, a, b);
+    if (glb.valid()) {
+        const SceneGlbReport report = glb.get();
+        files.glb = true;
+        files.glb_bytes = report.bytes;
+        files.glb_fps = scene.a.fps;
+    }
 
     json["segments"] = stage.segments;
     results::add_edit(json, edit, files);

@@ -162,8 +162,8 @@ struct PerformerTrack {
     bool textured = false;
 };
 
-bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbObject& object, int o, int k, PerformerTrack& track,
-                    tinygltf::Mesh& m, SceneGlbReport& report) {
+bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbObject& object, const TriangleMesh& mesh, int o, int k,
+                    PerformerTrack& track, tinygltf::Mesh& m, SceneGlbReport& report) {
     const ObjectFrameEdit& e = (*object.frames)[std::size_t(k)];
     m.name = fmt::format("{} frame {:04d} src {:04d}", object.name, k, e.source);
     if (track.textured) {
@@ -172,7 +172,6 @@ bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbOb
         report.index_accessors += int(m.primitives.size());
         return !m.primitives.empty();
     }
-    const TriangleMesh mesh = placed_mesh(e, *object.source);
     if (mesh.triangles.empty()) return false;
     if (track.last_indices < 0 || mesh.triangles != track.last_triangles) {
         track.last_indices = glb.indices(mesh);
@@ -191,11 +190,21 @@ bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbOb
 
 }  // namespace
 
-SceneGlbReport write_scene_glb(const std::filesystem::path& path, const EditResult& edit, ObjectSource& a, ObjectSource& b, double fps) {
-    return write_scene_glb(path, {{"A", &a, &edit.frames[0]}, {"B", &b, &edit.frames[1]}}, fps);
+SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, double fps) {
+    return write_scene_glb(path, objects, gather_glb_meshes(objects), fps);
 }
 
-SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, double fps) {
+GlbMeshes gather_glb_meshes(const std::vector<GlbObject>& objects) {
+    const std::size_t frames = objects.empty() ? 0 : objects.front().frames->size();
+    GlbMeshes meshes(frames, std::vector<TriangleMesh>(objects.size()));
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        if (has_obj_appearance(*objects[o].source)) continue;
+        for (std::size_t k = 0; k < frames; ++k) meshes[k][o] = placed_mesh((*objects[o].frames)[k], *objects[o].source);
+    }
+    return meshes;
+}
+
+SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, const GlbMeshes& meshes, double fps) {
     tinygltf::Model model;
     model.asset.version = "2.0";
     model.asset.generator = std::string("amhv ") + AMHV_VERSION;
@@ -214,7 +223,7 @@ SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vec
         const int sampler = frame_sampler(glb, play, k, frames, fps);
         for (std::size_t o = 0; o < objects.size(); ++o) {
             tinygltf::Mesh m;
-            if (!add_frame_mesh(glb, materials, objects[o], int(o), k, tracks[o], m, report)) continue;
+            if (!add_frame_mesh(glb, materials, objects[o], meshes.at(std::size_t(k)).at(o), int(o), k, tracks[o], m, report)) continue;
             model.meshes.push_back(m);
             tinygltf::Node node;
             node.name = m.name;

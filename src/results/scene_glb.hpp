@@ -28,9 +28,18 @@ struct GlbObject {
     const std::vector<ObjectFrameEdit>* frames = nullptr;  // per output frame
 };
 
-// Writes `path` (fails naming it when it cannot). `fps`: the output's frame rate.
-SceneGlbReport write_scene_glb(const std::filesystem::path& path, const EditResult& edit, ObjectSource& a, ObjectSource& b, double fps);
-// Any number of performers (a multi-party edit); the two-object call is this one with A and B.
+// Writes `path` (fails naming it when it cannot) for any number of performers (an edit's A and
+// B, or a multi-party edit's). `fps`: the output's frame rate.
 SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, double fps);
+
+// Per output frame and performer, its mesh placed in the scene (empty for a performer with OBJ
+// appearance, whose files are read as the scene is written): what writing scene.glb reads of the
+// object sources, gathered first, so that the rest can run beside other work that uses them (an
+// ObjectSource caches, one thread at a time).
+using GlbMeshes = std::vector<std::vector<TriangleMesh>>;
+GlbMeshes gather_glb_meshes(const std::vector<GlbObject>& objects);
+// Writes `path` from meshes gathered by gather_glb_meshes(objects); reads no ObjectSource but
+// through const calls.
+SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vector<GlbObject>& objects, const GlbMeshes& meshes, double fps);
 
 }  // namespace amhv
