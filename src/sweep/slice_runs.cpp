@@ -404,7 +404,8 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
         if (b[0] > b[2] || b[1] > b[3]) continue;
         box = {std::min(box[0], b[0]), std::min(box[1], b[1]), std::max(box[2], b[2]), std::max(box[3], b[3])};
     }
-    for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];  // an empty clip too
+    // (An empty clip, {1, 1, 0, 0}, holds no box that has columns, so it counts.)
+    for (const auto& c : clips) clipped |= c[0] > box[0] || c[1] > box[1] || c[2] < box[2] || c[3] < box[3];
     // The slots' occupied columns in B's global lattice: every non-zero word lies in their box.
     std::array<std::int64_t, 4> source_box{std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::max(),
                                            std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::min()};
