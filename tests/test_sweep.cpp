@@ -782,10 +782,13 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
         const SparseColumns sparse = sparse_columns(volume, slots);
         for (const double degrees : {0.0, 17.0, 90.0, 133.0, 251.5}) {
             const posemap::Trig trig = posemap::quantise_rotation(degrees * std::numbers::pi / 180.0);
-            // A clip per slot (the first as wide as them all), so runs end where their slot's clip does.
-            SlotClips clips;
+            // A clip per slot and word (the first as wide as them all, a slot's high word narrower
+            // than its low), so runs end where their slot's and word's clip does.
+            WordClips clips;
             for (std::size_t s = 0; s < slots.size(); ++s)
-                clips.push_back({-40 + 9 * std::int32_t(s), -30 + 4 * std::int32_t(s), 35 - 6 * std::int32_t(s), 40 - 5 * std::int32_t(s)});
+                for (std::int32_t w = 0; w < volume.zwords; ++w)
+                    clips.push_back({-40 + 9 * std::int32_t(s) + 3 * w, -30 + 4 * std::int32_t(s) + 2 * w, 35 - 6 * std::int32_t(s) - 4 * w,
+                                     40 - 5 * std::int32_t(s) - w});
             const int angle_in_batch = 2;
             std::vector<SliceRun> runs{{7, 7, 7, 7}};  // appended after what is there
             const int longest = append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, runs);
@@ -796,7 +799,7 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
             int expected_longest = 0;
             for (std::int32_t key = key_base; key < key_base + std::int32_t(slots.size()) * zbits; ++key) {
                 const int slot = slots[std::size_t((key - key_base) / zbits)], z = (key - key_base) % zbits;
-                const auto& clip = clips[std::size_t((key - key_base) / zbits)];
+                const auto& clip = clips[std::size_t((key - key_base) / 32)];  // slot index * zwords + word
                 for (std::int32_t gy = clip[1]; gy <= clip[3]; ++gy) {
                     auto set = [&](std::int32_t gx) {
                         const posemap::Column c = posemap::source_column(gx, gy, trig, root_a[0], root_a[1], root_b[0], root_b[1]);
@@ -946,8 +949,8 @@ TEST(Sweep, WordClipsGiveTheSameMapOnTheirRange) {
         for (const SliceRun& r : pulled) n += std::size_t(r.x_last - r.x_first + 1);
         return n;
     };
-    const SlotClips everywhere(slots.size(), {-1000, -1000, 1000, 1000});
-    const SlotClips words = word_clips(runs, i_first, i_last, j_first, j_last);
+    const WordClips everywhere(slots.size() * 2, {-1000, -1000, 1000, 1000});
+    const WordClips words = word_clips(runs, i_first, i_last, j_first, j_last);
     ASSERT_EQ(words.size(), slots.size() * 2);
     for (const double degrees : {0.0, 31.0, 144.5, 270.0}) {
         const posemap::Trig trig = posemap::quantise_rotation(degrees * std::numbers::pi / 180.0);

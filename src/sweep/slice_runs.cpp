@@ -206,10 +206,8 @@ void add_window_hulls(FixedRuns& result) {
 // column index kIndexAhead columns ahead and the words kWordsAhead ahead are prefetched.
 class RowCut {
 public:
-    // `clips`: per slot index (or per slot index and word, `per_word`), the A columns its words
-    // are kept in (null: all).
-    RowCut(const SparseColumns& sparse, const SlotClips* clips, bool per_word)
-        : sparse_(sparse), moving_(*sparse.volume), clips_(clips), per_word_(per_word) {}
+    // `clips`: per slot index and word, the A columns its words are kept in (null: all).
+    RowCut(const SparseColumns& sparse, const WordClips* clips) : sparse_(sparse), moving_(*sparse.volume), clips_(clips) {}
 
     void walk(std::int32_t gy, const RowStretch& stretch, RowRuns& row) const {
         posemap::Step at = stretch.at, index_ahead = ahead(at, kIndexAhead), words_ahead = ahead(at, kWordsAhead);
@@ -242,7 +240,7 @@ private:
         for (std::uint32_t e = sparse_.first[c]; e < sparse_.first[c + 1]; ++e) {
             const SparseColumns::Entry& entry = sparse_.entries[e];
             if (clips_) {
-                const auto& clip = (*clips_)[std::size_t(per_word_ ? entry.word : entry.word / moving_.zwords)];
+                const auto& clip = (*clips_)[std::size_t(entry.word)];
                 if (gx < clip[0] || gx > clip[2] || gy < clip[1] || gy > clip[3]) continue;
             }
             row.add(entry.word, entry.bits);
@@ -251,8 +249,7 @@ private:
 
     const SparseColumns& sparse_;
     const ColumnVolume& moving_;
-    const SlotClips* clips_;
-    bool per_word_;
+    const WordClips* clips_;
 };
 
 }  // namespace
@@ -368,19 +365,17 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 }
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
-                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const WordClips& clips,
                        std::vector<SliceRun>& out, MapPasses passes, std::vector<std::size_t>* pass_first, const RunFilter* keep,
                        std::size_t* cut_count) {
     const ColumnVolume& moving = *sparse.volume;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
-    const bool per_word = clips.size() == sparse.slots.size() * std::size_t(moving.zwords) && moving.zwords > 1;
-    if (clips.size() != sparse.slots.size() && !per_word)
+    if (clips.size() != sparse.slots.size() * std::size_t(moving.zwords))
         fail("sweep", "internal: {} clips for {} slots of {} words", clips.size(), sparse.slots.size(), moving.zwords);
-    // Each slot's clip (the union of its words' where they are given): its columns lie within.
+    // Each slot's clip, the union of its words': its columns lie within.
     const auto slot_clip = [&](std::size_t s) {
-        if (!per_word) return clips[s];
         std::array<std::int32_t, 4> box{1, 1, 0, 0};
         for (int w = 0; w < moving.zwords; ++w) {
             const auto& c = clips[s * std::size_t(moving.zwords) + std::size_t(w)];
@@ -429,7 +424,7 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     RowRuns& row = *row_runs;
     row.count_into(&buckets);
     row.filter_by(keep);
-    const RowCut cut(sparse, clipped ? &clips : nullptr, per_word);
+    const RowCut cut(sparse, clipped ? &clips : nullptr);
     for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
         const RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
         if (stretch.first > stretch.last) continue;
@@ -450,8 +445,8 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     return longest;
 }
 
-SlotClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last) {
-    SlotClips clips;
+WordClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last) {
+    WordClips clips;
     clips.reserve(fixed.word_boxes.size());
     for (const auto& box : fixed.word_boxes) {
         if (box[0] > box[2] || box[1] > box[3] || i_first > i_last || j_first > j_last) {
@@ -459,21 +454,6 @@ SlotClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_firs
             continue;
         }
         clips.push_back({box[0] - i_last, box[1] - j_last, box[2] - i_first, box[3] - j_first});
-    }
-    return clips;
-}
-
-SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last) {
-    SlotClips clips;
-    clips.reserve(slots.size());
-    for (const int slot : slots) {
-        const auto& box = fixed.slot_boxes[std::size_t(slot)];
-        if (box[0] > box[2] || box[1] > box[3] || i_first > i_last || j_first > j_last) {
-            clips.push_back({1, 1, 0, 0});
-            continue;
-        }
-        clips.push_back({std::int32_t(fixed.x0 + box[0] - i_last), std::int32_t(fixed.y0 + box[1] - j_last),
-                         std::int32_t(fixed.x0 + box[2] - i_first), std::int32_t(fixed.y0 + box[3] - j_first)});
     }
     return clips;
 }

@@ -63,9 +63,9 @@ struct SparseColumns {
 
 SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>& slots);
 
-// Per slot index, or per slot index and z word (slot_index * zwords + word), a box of A columns
-// ([x_first, y_first, x_last, y_last], global A lattice).
-using SlotClips = std::vector<std::array<std::int32_t, 4>>;
+// Per slot index and z word (slot_index * zwords + word), a box of A columns ([x_first, y_first,
+// x_last, y_last], global A lattice).
+using WordClips = std::vector<std::array<std::int32_t, 4>>;
 
 // The overlap-map pass of the runs at z slice `z` and row `y` out of `passes`: coarse to fine in
 // both, cells whose z and y have more trailing zeros go first. With 5 passes: the cells where z
@@ -102,25 +102,21 @@ protected:
 };
 
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
-// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's runs (or
-// each slot's and z word's, when `clips` holds one box per word) cut to its box in `clips`, and only those `keep` keeps (all when null; `cut`, where given, gets how many
-// were cut before it chose). The appended runs are sorted by map pass (of `passes`), then key,
+// mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's and z
+// word's runs cut to its box in `clips`, and only those `keep` keeps (all when null; `cut`, where
+// given, gets how many were cut before it chose). The appended runs are sorted by map pass (of `passes`), then key,
 // then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first
 // run (and one more at the end). Returns the longest run appended.
 int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
-                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const SlotClips& clips,
+                       const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const WordClips& clips,
                        std::vector<SliceRun>& out, MapPasses passes = {}, std::vector<std::size_t>* pass_first = nullptr,
                        const RunFilter* keep = nullptr, std::size_t* cut = nullptr);
 
-// Per slot of `slots`, the pulled columns that can meet that slot of `fixed` at an offset (i, j)
-// with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed column g + (i, j),
-// so g lies in the slot's occupied box shifted by minus those offsets. Runs cut to these boxes give
-// the same map.
-SlotClips pulled_clips(const ColumnVolume& fixed, const std::vector<int>& slots, int i_first, int i_last, int j_first, int j_last);
-
-// The same per slot index and z word, from the fixed runs' word_boxes: a word's box holds only the
-// runs of its 32 slices, so the clips of a body's slices are far narrower than its slot's (the
-// runs cut give the same map on those offsets).
-SlotClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last);
+// Per slot index and z word of `fixed`'s runs, the pulled columns that can meet that word's runs
+// at an offset (i, j) with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed
+// column g + (i, j), so g lies in the word's box (FixedRuns::word_boxes) shifted by minus those
+// offsets. Runs cut to these boxes give the same map on those offsets; a word's box holds only
+// the runs of its 32 slices, so a body's clips are far narrower than the box of all its slices.
+WordClips word_clips(const FixedRuns& fixed, int i_first, int i_last, int j_first, int j_last);
 
 }  // namespace amhv

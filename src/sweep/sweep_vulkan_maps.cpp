@@ -229,7 +229,7 @@ void SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batc
         scratch.pass_first.assign(std::size_t(passes) + 1, 0);
         return;
     }
-    const SlotClips clips = word_clips(test.runs, range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
+    const WordClips clips = word_clips(test.runs, range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
     thread_local PulledPruner pruner;
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
     const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);

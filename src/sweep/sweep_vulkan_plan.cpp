@@ -215,7 +215,8 @@ void SweepRun::prepare_map(MapTest& test) {
     if (test.runs.runs.size() > tools_.context.selected().max_texel_buffer_elements)
         fail("key segment", "{} slice runs are more than the device's texel buffers hold ({} texels, one a run); use a larger voxel",
              test.runs.runs.size(), tools_.context.selected().max_texel_buffer_elements);
-    // Pulled runs are cut to pulled_clips, which start here or later for every angle and row.
+    // Pulled runs are cut to word_clips, which start here or later for every angle and row (a word's
+    // runs lie in the volume's occupied columns).
     test.pulled_x0 = std::int32_t(test.fixed->x0) + test.fixed->x_first - range_.i_last;
     std::vector<std::array<std::uint32_t, 2>> packed;
     packed.reserve(test.runs.runs.size());
