@@ -832,7 +832,7 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
             for (const MapPasses passes : {MapPasses{5, 0}, MapPasses{9, 0}, MapPasses{5, 13}, MapPasses{9, 37}}) {
                 std::vector<SliceRun> by_pass{{7, 7, 7, 7}};
                 std::vector<std::size_t> pass_first;
-                append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, by_pass, passes, &pass_first);
+                append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, by_pass, PulledCut{passes, 0, passes.count - 1, &pass_first});
                 ASSERT_EQ(pass_first.size(), std::size_t(passes.count) + 1);
                 std::size_t at = 1;
                 for (int pass = 0; pass < passes.count; ++pass) {
@@ -848,6 +848,40 @@ TEST(Sweep, PulledRunsAreTheMaximalRunsOfThePulledVoxels) {
                 }
                 EXPECT_EQ(pass_first.back(), at);
                 EXPECT_EQ(by_pass.size(), at);
+                // Cut row pass by row pass (as a map cuts each row just before its first pass),
+                // each pass gets the same runs from the parts, none from a part cut after it.
+                std::vector<SliceRun> parts;
+                std::vector<std::size_t> part_first;
+                for (int row_pass = 0; row_pass < passes.count; ++row_pass) {
+                    std::vector<std::size_t> first;
+                    append_pulled_runs(sparse, trig, root_a, root_b, angle_in_batch, clips, parts, PulledCut{passes, row_pass, row_pass, &first});
+                    part_first.insert(part_first.end(), first.begin(), first.end());
+                }
+                ASSERT_EQ(parts.size(), by_pass.size() - 1) << degrees;
+                const auto order = [](const SliceRun& a, const SliceRun& b) {
+                    return std::tie(a.key, a.y, a.x_first, a.x_last) < std::tie(b.key, b.y, b.x_first, b.x_last);
+                };
+                const std::size_t stride = std::size_t(passes.count) + 1;
+                for (int pass = 0; pass < passes.count; ++pass) {
+                    std::vector<SliceRun> whole(by_pass.begin() + std::ptrdiff_t(pass_first[std::size_t(pass)]),
+                                                by_pass.begin() + std::ptrdiff_t(pass_first[std::size_t(pass) + 1]));
+                    std::vector<SliceRun> joined;
+                    for (int row_pass = 0; row_pass < passes.count; ++row_pass) {
+                        const std::size_t first = part_first[std::size_t(row_pass) * stride + std::size_t(pass)];
+                        const std::size_t end = part_first[std::size_t(row_pass) * stride + std::size_t(pass) + 1];
+                        if (row_pass > pass) {
+                            EXPECT_EQ(first, end) << degrees << " pass " << pass << " part " << row_pass;
+                        }
+                        for (std::size_t r = first; r < end; ++r) {
+                            EXPECT_EQ(first_pass_of_row(parts[r].y, passes.count), row_pass) << degrees << " pass " << pass;
+                            joined.push_back(parts[r]);
+                        }
+                    }
+                    std::sort(whole.begin(), whole.end(), order);
+                    std::sort(joined.begin(), joined.end(), order);
+                    ASSERT_EQ(joined.size(), whole.size()) << degrees << " pass " << pass;
+                    for (std::size_t r = 0; r < whole.size(); ++r) ASSERT_FALSE(order(whole[r], joined[r]) || order(joined[r], whole[r])) << degrees;
+                }
             }
         }
     }

@@ -259,6 +259,8 @@ int map_pass_of(int z, int y, int passes) {
     return last - std::min({std::countr_zero(std::uint32_t(z)), std::countr_zero(std::uint32_t(y)), last});
 }
 
+int first_pass_of_row(int y, int passes) { return map_pass_of(0, y, passes); }
+
 FixedRuns fixed_runs(const ColumnVolume& volume, const std::vector<int>& slots) {
     check_lattice(volume.x0, volume.y0, volume.nx, volume.ny);
     FixedRuns result;
@@ -366,9 +368,9 @@ SparseColumns sparse_columns(const ColumnVolume& moving, const std::vector<int>&
 
 int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const WordClips& clips,
-                       std::vector<SliceRun>& out, MapPasses passes, std::vector<std::size_t>* pass_first, const RunFilter* keep,
-                       std::size_t* cut_count) {
+                       std::vector<SliceRun>& out, const PulledCut& how) {
     const ColumnVolume& moving = *sparse.volume;
+    const MapPasses passes = how.passes;
     const int zbits = 32 * moving.zwords;
     const std::size_t key_count = sparse.slots.size() * std::size_t(zbits);
     const std::int32_t key_base = std::int32_t(angle_in_batch) * std::int32_t(key_count);
@@ -423,22 +425,27 @@ int append_pulled_runs(const SparseColumns& sparse, const posemap::Trig& trig, c
     RunBuckets buckets(first, passes, zbits, key_count, key_base);
     RowRuns& row = *row_runs;
     row.count_into(&buckets);
-    row.filter_by(keep);
+    row.filter_by(how.keep);
     const RowCut cut(sparse, clipped ? &clips : nullptr);
+    const bool every_row = how.first_row_pass <= 0 && how.last_row_pass >= passes.count - 1;
     for (std::int32_t gy = box[1]; gy <= box[3] && source_box[0] <= source_box[2]; ++gy) {
+        if (!every_row) {
+            const int first_pass = first_pass_of_row(gy, passes.count);
+            if (first_pass < how.first_row_pass || first_pass > how.last_row_pass) continue;
+        }
         const RowStretch stretch = stretch_in_box(gy, box[0], box[2], trig, root_a, root_b, source_box);
         if (stretch.first > stretch.last) continue;
         row.start_row(gy, key_base, visited, longest);
         cut.walk(gy, stretch, row);
     }
     row.count_into(nullptr);
-    if (cut_count) *cut_count = row.cut();
+    if (how.cut) *how.cut = row.cut();
     row.filter_by(nullptr);
     buckets.accumulate();
     const std::size_t base = out.size();
-    if (pass_first) {
-        pass_first->resize(std::size_t(passes.count) + 1);
-        for (int p = 0; p <= passes.count; ++p) (*pass_first)[std::size_t(p)] = base + buckets.first_of_pass(p);
+    if (how.pass_first) {
+        how.pass_first->resize(std::size_t(passes.count) + 1);
+        for (int p = 0; p <= passes.count; ++p) (*how.pass_first)[std::size_t(p)] = base + buckets.first_of_pass(p);
     }
     out.resize(base + visited.size());
     for (const SliceRun& run : visited) out[base + buckets.place(run)] = run;

@@ -8,6 +8,7 @@
 // one test per pose.
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "src/sweep/column_volume.hpp"
@@ -101,16 +102,28 @@ protected:
     ~RunFilter() = default;
 };
 
+// How append_pulled_runs sorts, filters and hands back the runs it cuts.
+struct PulledCut {
+    MapPasses passes;  // the runs are sorted by map pass, then key, then y, then x
+    // Only the rows y whose first map pass (first_pass_of_row) lies in [first_row_pass,
+    // last_row_pass]: a map cuts each row just before its first pass, with the poses still in play
+    // then (a coarse pass settles most poses, and a row's runs reach only those left).
+    int first_row_pass = 0, last_row_pass = std::numeric_limits<int>::max();
+    std::vector<std::size_t>* pass_first = nullptr;  // where given: the index in `out` of each pass's first run, and one more
+    const RunFilter* keep = nullptr;                 // keeps only the runs it keeps (null: all)
+    std::size_t* cut = nullptr;                      // where given: how many runs were cut before `keep` chose
+};
+
+// The first map pass (of `passes`) that holds runs of row y: its runs at the slice z_phase, where
+// every z bit counts as a multiple of the largest power of two.
+int first_pass_of_row(int y, int passes);
+
 // Appends the runs of the moving volume pulled under A's lattice at pose (0, 0, angle) (the
 // mapping of pose_map.hpp), for its slots, with keys for `angle_in_batch`, each slot's and z
-// word's runs cut to its box in `clips`, and only those `keep` keeps (all when null; `cut`, where
-// given, gets how many were cut before it chose). The appended runs are sorted by map pass (of `passes`), then key,
-// then y, then x; `pass_first`, where given, gets the index in `out` of each pass's first
-// run (and one more at the end). Returns the longest run appended.
+// word's runs cut to its box in `clips`, as `how` says. Returns the longest run appended.
 int append_pulled_runs(const SparseColumns& moving, const posemap::Trig& trig, const std::array<std::int64_t, 2>& root_a,
                        const std::array<std::int64_t, 2>& root_b, int angle_in_batch, const WordClips& clips,
-                       std::vector<SliceRun>& out, MapPasses passes = {}, std::vector<std::size_t>* pass_first = nullptr,
-                       const RunFilter* keep = nullptr, std::size_t* cut = nullptr);
+                       std::vector<SliceRun>& out, const PulledCut& how = {});
 
 // Per slot index and z word of `fixed`'s runs, the pulled columns that can meet that word's runs
 // at an offset (i, j) with i in [i_first, i_last] and j in [j_first, j_last]: column g meets fixed

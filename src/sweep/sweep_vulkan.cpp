@@ -226,12 +226,14 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
         }
         rows[a] = band;
     });
-    // Every angle's runs are cut (on all cores) before the cost model reads one angle's: the maps
-    // then use them as they are. (Cutting the sample alone, on one core, cost as much as the maps
-    // at 5 mm.)
+    // Every angle's first map pass is cut (on all cores), and the cost model's sample angle whole,
+    // before the model reads it: the maps then use them as they are and cut each angle's other rows
+    // just before their first pass. (Cutting the sample alone, on one core, cost as much as the
+    // maps at 5 mm; the other angles' later rows, cut up front, were mostly runs that only poses
+    // decided by the first passes could have used.)
     const bool may_map = !optional_maps_[std::size_t(stage)].empty() && !survivors.empty();
     if (may_map)
-        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows, &candidates);
+        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows, &candidates, model_sample(rows));
     if (may_map && maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates)) {
         Meets meets;
         for (MapTest& test : optional_maps_[std::size_t(stage)])

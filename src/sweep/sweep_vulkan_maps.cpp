@@ -153,17 +153,18 @@ std::uint64_t pairs_at_most(const MapTest& test, int angle_in_batch, std::span<c
 // The box of poses (within `rows`, relative to the range's first offsets `i_first`, `j_first`)
 // that some run of `runs` can reach: the union of their keys' boxes moved by the runs
 // (RunsInPlay::band tests nothing outside a run's own). Empty: first > last.
-Band reach_of(const MapTest& test, int angle_in_batch, std::span<const SliceRun> runs, const Band& rows, std::int32_t i_first,
+Band reach_of(const MapTest& test, int angle_in_batch, std::span<const std::span<const SliceRun>> parts, const Band& rows, std::int32_t i_first,
               std::int32_t j_first) {
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
     Band reach{std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max(),
                std::numeric_limits<std::int32_t>::min()};
-    for (const SliceRun& run : runs) {
-        const auto& box = test.runs.key_boxes[std::size_t(run.key - key_base)];
-        if (box[0] > box[1]) continue;
-        reach = {std::min(reach[0], box[2] - run.y), std::max(reach[1], box[3] - run.y), std::min(reach[2], box[0] - run.x_last),
-                 std::max(reach[3], box[1] - run.x_first)};
-    }
+    for (const std::span<const SliceRun> runs : parts)
+        for (const SliceRun& run : runs) {
+            const auto& box = test.runs.key_boxes[std::size_t(run.key - key_base)];
+            if (box[0] > box[1]) continue;
+            reach = {std::min(reach[0], box[2] - run.y), std::max(reach[1], box[3] - run.y), std::min(reach[2], box[0] - run.x_last),
+                     std::max(reach[3], box[1] - run.x_first)};
+        }
     if (reach[0] > reach[1]) return {1, 0, 1, 0};
     return {std::max(rows[0], reach[0] - j_first), std::min(rows[1], reach[1] - j_first), std::max(rows[2], reach[2] - i_first),
             std::min(rows[3], reach[3] - i_first)};
@@ -214,27 +215,60 @@ private:
     std::size_t stride_;
 };
 
+// prune_pulled_runs on one part's runs of a pass.
+void prune_part(const MapTest& test, const RunsInPlay& in_play, std::int32_t key_base, std::int32_t j_first, std::span<const SliceRun> runs,
+                std::uint64_t& pairs, std::vector<PulledRun>& out) {
+    for (const SliceRun& run : runs) {
+        const auto band = in_play.band(run);
+        if (!band) continue;
+        const auto [j0, j1] = *band;
+        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base)];
+        const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
+        const auto from = std::lower_bound(key_begin, key_end, run.y + j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
+        const auto to = std::upper_bound(from, key_end, run.y + j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
+        pairs += std::uint64_t(to - from);
+        out.push_back({run.y, std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16, run.key,
+                       std::uint32_t(j0) | std::uint32_t(j1) << 16});
+    }
+}
+
 }  // namespace
 
-// Cuts one angle's pulled runs for a map test into `scratch` (sorted by map pass, then key), each
-// slot's cut to the columns that can reach that slot of the fixed volume from the box of the poses
-// in play, and, where only some poses are in play (`open`: per pose of the angle; null: all),
-// only the runs that reach one of them (RunsInPlay): the passes' pruning would drop the others.
-void SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, const std::uint8_t* open,
-                               AngleScratch& scratch) const {
-    scratch.by_pass.clear();
-    scratch.longest = 0;
-    scratch.cut = 0;
-    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) {
-        scratch.pass_first.assign(std::size_t(passes) + 1, 0);
-        return;
+void AngleScratch::runs_of_pass(int pass, int passes, std::vector<std::span<const SliceRun>>& spans) const {
+    spans.clear();
+    const std::size_t stride = std::size_t(passes) + 1;
+    for (std::size_t part = 0; part + stride <= pass_first.size(); part += stride) {
+        const std::size_t first = pass_first[part + std::size_t(pass)], end = pass_first[part + std::size_t(pass) + 1];
+        if (first < end) spans.emplace_back(by_pass.data() + first, end - first);
     }
+}
+
+// Cuts the rows of one angle whose first map pass lies in `row_passes` into a new part of
+// `scratch` (the first pass's rows start it afresh), each slot's and word's runs cut to the columns
+// that can reach that slot of the fixed volume from the box of the poses in play, and, where only
+// some poses are in play (`open`: per pose of the angle; null: all), only the runs that reach one
+// of them (RunsInPlay): the passes' pruning would drop the others. With `open`, the prefix sums
+// of the poses in play over `rows` are left in `pruner`.
+void SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
+                               const std::uint8_t* open, std::array<int, 2> row_passes, AngleScratch& scratch) const {
+    if (row_passes[0] == 0) {
+        scratch.by_pass.clear();
+        scratch.pass_first.clear();
+        scratch.longest = 0;
+        scratch.cut = 0;
+    }
+    scratch.rows_through = row_passes[1];
+    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return;
     const WordClips clips = word_clips(test.runs, range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
-    thread_local PulledPruner pruner;
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
     const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
-    scratch.longest = append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch, clips, scratch.by_pass,
-                                         MapPasses{passes, test.z_phase}, &scratch.pass_first, open ? &in_play : nullptr, &scratch.cut);
+    std::vector<std::size_t> pass_first;
+    std::size_t cut = 0;
+    const PulledCut how{MapPasses{passes, test.z_phase}, row_passes[0], row_passes[1], &pass_first, open ? &in_play : nullptr, &cut};
+    scratch.longest = std::max(scratch.longest, append_pulled_runs(test.moving_words, trig_[std::size_t(angle)], root_a_, root_b_, angle_in_batch,
+                                                                   clips, scratch.by_pass, how));
+    scratch.pass_first.insert(scratch.pass_first.end(), pass_first.begin(), pass_first.end());
+    scratch.cut += cut;
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -246,41 +280,42 @@ void SweepRun::cut_pulled_runs(const MapTest& test, int angle, int angle_in_batc
 // play). A box test (2D prefix sums of the poses in play) first drops most runs cheaply.
 // Returns the pairs of runs the kernel will visit.
 std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
-                                          std::span<const SliceRun> runs, const std::uint8_t* open, std::vector<PulledRun>& out) const {
+                                          std::span<const std::span<const SliceRun>> parts, const std::uint8_t* open,
+                                          std::vector<PulledRun>& out, bool counted) const {
     std::uint64_t pairs = 0;
-    if (rows[0] > rows[1] || runs.empty()) return pairs;
-    if (open) {
+    if (rows[0] > rows[1] || parts.empty()) return pairs;
+    if (open && !counted) {
         // Every test below stays within some run's reach: the poses in play are counted there only.
-        const Band reach = reach_of(test, angle_in_batch, runs, rows, range_.i_first, range_.j_first);
+        const Band reach = reach_of(test, angle_in_batch, parts, rows, range_.i_first, range_.j_first);
         if (reach[0] > reach[1] || reach[2] > reach[3]) return pairs;
         count_poses_in_play(pruner, open, reach, width_, height_);
     }
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
     const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
-    for (const SliceRun& run : runs) {
-        const auto band = in_play.band(run);
-        if (!band) continue;
-        const auto [j0, j1] = *band;
-        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base)];
-        const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
-        const auto from = std::lower_bound(key_begin, key_end, run.y + range_.j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
-        const auto to = std::upper_bound(from, key_end, run.y + range_.j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
-        pairs += std::uint64_t(to - from);
-        out.push_back({run.y, std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16, run.key,
-                       std::uint32_t(j0) | std::uint32_t(j1) << 16});
-    }
+    for (const std::span<const SliceRun> runs : parts)
+        prune_part(test, in_play, key_base, range_.j_first, runs, pairs, out);
     return pairs;
 }
 
 // Every map, every-frame maps too (close_decided_poses), goes in the same passes.
 int SweepRun::map_passes() const { return std::clamp(tools_.options.map_passes, 1, 16); }
 
-void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const {
+void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open,
+                          int whole_angle) const {
     if (test.angles.size() < std::size_t(batch_angles)) test.angles.resize(std::size_t(batch_angles));
     const int passes = map_passes();
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        cut_pulled_runs(test, angle_first + int(a), int(a), rows[a], passes, open ? open->data() + a * per_angle_ : nullptr, test.angles[a]);
+        thread_local PulledPruner pruner;
+        const std::array<int, 2> row_passes{0, int(a) == whole_angle ? passes - 1 : 0};
+        cut_pulled_runs(pruner, test, angle_first + int(a), int(a), rows[a], passes, open ? open->data() + a * per_angle_ : nullptr, row_passes,
+                        test.angles[a]);
     });
+}
+
+int SweepRun::model_sample(const Rows& rows) {
+    for (std::size_t a = 0; a < rows.size(); ++a)
+        if (rows[a][0] <= rows[a][1]) return int(a);
+    return 0;
 }
 
 // Computes the map on the box `rows[a]` of each angle a of the batch and, where `candidates` is
@@ -302,8 +337,6 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     // Host work per angle, on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
     if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows, nullptr);
-    int longest = 0;
-    for (int a = 0; a < batch_angles; ++a) longest = std::max(longest, test.angles[std::size_t(a)].longest);
     const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     map_words_.ensure(tools_.context, map_bytes);
@@ -315,15 +348,25 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         std::vector<std::uint64_t> pairs_of(static_cast<std::size_t>(batch_angles), 0);
         for_each_angle([&](int a) {
             thread_local PulledPruner pruner;
+            thread_local std::vector<std::span<const SliceRun>> parts;
             AngleScratch& scratch = test.angles[std::size_t(a)];
+            const std::uint8_t* angle_open = open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_;
+            // This pass's rows are cut now, within the box of the poses still in play. Where the
+            // first pass's were cut against the candidates (the later stages: few poses in play),
+            // so are they, against those still open; contact's and the dictionary's poses in play
+            // are dense, and a filter there costs what the copies it saves do.
+            const bool cut_now = scratch.rows_through < pass;
+            const bool filter = cut_now && angle_open && runs_cut;
+            if (cut_now) cut_pulled_runs(pruner, test, angle_first + a, a, open_rows[std::size_t(a)], passes, filter ? angle_open : nullptr, {pass, pass}, scratch);
             scratch.pruned.clear();
-            const std::span<const SliceRun> runs(scratch.by_pass.data() + scratch.pass_first[std::size_t(pass)],
-                                                 scratch.pass_first[std::size_t(pass) + 1] - scratch.pass_first[std::size_t(pass)]);
-            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], a, runs,
-                                                         open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_, scratch.pruned);
+            scratch.runs_of_pass(pass, passes, parts);
+            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], a, parts, angle_open, scratch.pruned,
+                                                         filter);
         });
         std::size_t total_runs = 0;
+        int longest = 0;
         for (int a = 0; a < batch_angles; ++a) {
+            longest = std::max(longest, test.angles[std::size_t(a)].longest);
             total_runs += test.angles[std::size_t(a)].pruned.size();
             tools_.stats.run_pairs_per_stage[std::size_t(stage)] += pairs_of[std::size_t(a)];
         }
@@ -474,10 +517,10 @@ std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angl
 // angle of the batch).
 bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>& candidates) const {
     if (optional_maps_[std::size_t(stage)].empty() || pose_count == 0) return false;
-    // The first angle with poses in play stands for every angle with some.
-    int sample = 0, angles_in_play = 0;
-    for (int a = batch_angles - 1; a >= 0; --a)
-        if (rows[std::size_t(a)][0] <= rows[std::size_t(a)][1]) sample = a, ++angles_in_play;
+    // The first angle with poses in play stands for every angle with some (cut whole by cut_angles).
+    const int sample = model_sample(rows);
+    int angles_in_play = 0;
+    for (int a = 0; a < batch_angles; ++a) angles_in_play += rows[std::size_t(a)][0] <= rows[std::size_t(a)][1] ? 1 : 0;
     // A pose test's cost grows with the columns and words it visits (8x from 10 mm to 5 mm); the
     // option prices one of kPoseTestIterations loop steps.
     const double pose_cost = double(pose_count) * tools_.options.pose_test_pairs * pose_iterations_[std::size_t(stage)] / kPoseTestIterations;
@@ -496,7 +539,8 @@ bool SweepRun::maps_pay_off(int stage, std::size_t pose_count, int batch_angles,
     thread_local std::vector<PulledRun> pruned;
     for (const MapTest& test : optional_maps_[std::size_t(stage)]) {
         pruned.clear();
-        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, test.angles[std::size_t(sample)].by_pass,
+        const std::span<const SliceRun> all(test.angles[std::size_t(sample)].by_pass);
+        pairs += prune_pulled_runs(pruner, test, rows[std::size_t(sample)], sample, std::span(&all, 1),
                                    candidates.data() + std::size_t(sample) * per_angle_, pruned);
     }
     return pose_cost > maps_cost(pairs, cut);

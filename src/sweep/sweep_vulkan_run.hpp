@@ -95,13 +95,18 @@ struct OverlapTest {
     int flag_words() const { return want == Want::Frames ? (frames + 31) / 32 : 1; }
 };
 
-// One angle's pulled runs in a map test, kept between batches so their buffers are reused.
+// One angle's pulled runs in a map test, kept between batches so their buffers are reused. A map
+// cuts each row of A's lattice just before its first pass (first_pass_of_row), so the runs come in
+// parts, one per cut, each ordered by map pass and key within a pass.
 struct AngleScratch {
-    std::vector<SliceRun> by_pass;            // as cut: ordered by map pass, key order within a pass
-    std::vector<std::size_t> pass_first;      // per pass: its first run in by_pass (one more at the end)
-    int longest = 0;                          // voxels in the longest run kept
-    std::size_t cut = 0;                      // runs cut, kept or not (what the cost model prices)
-    std::vector<PulledRun> pruned;            // one pass's runs that reach poses in play
+    std::vector<SliceRun> by_pass;        // every part's runs, part after part
+    std::vector<std::size_t> pass_first;  // per part and pass: its first run in by_pass (passes + 1 entries a part)
+    int rows_through = -1;                // the rows whose first pass is at most this one are cut
+    int longest = 0;                      // voxels in the longest run kept
+    std::size_t cut = 0;                  // runs cut, kept or not (what the cost model prices)
+    std::vector<PulledRun> pruned;        // one pass's runs that reach poses in play
+    // The runs of map pass `pass` (of `passes`), one span per part.
+    void runs_of_pass(int pass, int passes, std::vector<std::span<const SliceRun>>& spans) const;
 };
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
@@ -236,16 +241,21 @@ private:
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
-    void cut_pulled_runs(const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes, const std::uint8_t* open,
-                         AngleScratch& scratch) const;
-    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch, std::span<const SliceRun> runs,
-                                    const std::uint8_t* open, std::vector<PulledRun>& out) const;
-    // Cuts the pulled runs of every angle of the batch into test.angles, on all cores; with
-    // `open` (per pose of the batch), only those that reach a pose in play.
-    void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open) const;
+    void cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
+                         const std::uint8_t* open, std::array<int, 2> row_passes, AngleScratch& scratch) const;
+    std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
+                                    std::span<const std::span<const SliceRun>> runs, const std::uint8_t* open, std::vector<PulledRun>& out,
+                                    bool counted = false) const;
+    // Cuts the rows of the first map pass of every angle of the batch into test.angles, on all
+    // cores (every row of angle `whole_angle`); with `open` (per pose of the batch), only the runs
+    // that reach a pose in play.
+    void cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open,
+                    int whole_angle = -1) const;
+    // The angle of the batch whose runs stand for every angle in the cost model: the first with poses in play.
+    static int model_sample(const Rows& rows);
     int map_passes() const;
     // Decides `test` for every pose of the batch (implicit order) with an overlap map (`runs_cut`:
-    // test.angles holds the batch's runs already).
+    // test.angles holds the batch's runs of the first pass already, cut against the candidates).
     std::vector<std::uint8_t> run_map(MapTest& test, int stage, int angle_first, int batch_angles, const Rows& rows,
                                       const std::vector<std::uint8_t>* candidates, bool runs_cut = false);
     void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest, std::uint64_t map_bytes);
