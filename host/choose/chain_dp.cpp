@@ -1,6 +1,7 @@
 #include "host/choose/chain_dp.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
+#include "src/core/uninitialised_allocator.hpp"
 #include "host/choose/chain_alternatives.hpp"
 
 namespace amhv {
@@ -60,9 +62,21 @@ void for_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t
     parallel_for((n + kChunk - 1) / kChunk, [&](std::size_t c) { work(c * kChunk, std::min(n, (c + 1) * kChunk)); });
 }
 
+// Per-solution lists of the DP (up to 60 MB a segment at 5 mm) are first written on every core:
+// a list filled on one thread paid for its fresh pages there, and a copy of a filled list twice.
+template <typename T>
+using PerSolution = std::vector<T, UninitialisedAllocator<T>>;
+
+template <typename T>
+PerSolution<T> filled(std::size_t n, T value) {
+    PerSolution<T> list(n);
+    for_chunks(n, [&](std::size_t first, std::size_t last) { std::fill(list.begin() + std::ptrdiff_t(first), list.begin() + std::ptrdiff_t(last), value); });
+    return list;
+}
+
 // cost[j]: the unary term of every solution j of segment i at rotation d that the restrictions
 // allow, else infinity; on every core.
-void fill_unary(const ChainSegment& seg, std::size_t i, int d, const ChainWeights& w, const ChainRestrictions* restrictions, std::vector<double>& cost) {
+void fill_unary(const ChainSegment& seg, std::size_t i, int d, const ChainWeights& w, const ChainRestrictions* restrictions, PerSolution<double>& cost) {
     for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
         UnaryTerms terms(seg, w, d);
         for (std::size_t j = first; j < last; ++j)
@@ -161,18 +175,33 @@ constexpr PackedState kNoState = std::numeric_limits<PackedState>::max();
 
 PackedState pack_state(int k, int d, std::size_t states_per_rotation) { return PackedState(std::size_t(d) * states_per_rotation + std::size_t(k)); }
 
+// The box of the solutions' cells: first and last i, first and last j (on every core).
+std::array<int, 4> cell_box(const ChainSolutions& solutions) {
+    const std::size_t chunks = (solutions.size() + kChunk - 1) / kChunk;
+    std::vector<std::array<int, 4>> boxes(chunks, {INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN});
+    for_chunks(solutions.size(), [&](std::size_t first, std::size_t last) {
+        std::array<int, 4> box = boxes[first / kChunk];
+        for (std::size_t k = first; k < last; ++k) {
+            const ChainSolution& s = solutions[k];
+            box = {std::min(box[0], s.i), std::max(box[1], s.i), std::min(box[2], s.j), std::max(box[3], s.j)};
+        }
+        boxes[first / kChunk] = box;
+    });
+    std::array<int, 4> box{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
+    for (const auto& b : boxes) box = {std::min(box[0], b[0]), std::max(box[1], b[1]), std::min(box[2], b[2]), std::max(box[3], b[3])};
+    return box;
+}
+
 // Best and its argument over the states (k, d) of the segment before, for each state (j, d) of
 // `seg` (the same rotation R): |a + R r - R r'|^2 = |R^-1 a + r - r'|^2, with r and r' on the h
 // grid, a separable 2D distance transform over the cells of the segment before. Its rows, then its
 // columns, are independent: they go to every core.
-void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
-                           const ChainWeights& w, int d, std::size_t i, std::vector<double>& best, std::vector<PackedState>& arg) {
+void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const PerSolution<double>& g, const Eigen::Vector2d& a,
+                           const ChainWeights& w, int d, std::size_t i, PerSolution<double>& best, PerSolution<PackedState>& arg) {
     const double c = pair_factor(w), h = w.voxel;
     const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
-    int pi0 = INT32_MAX, pi1 = INT32_MIN, pj0 = INT32_MAX, pj1 = INT32_MIN;
-    for (const auto& s : prev.solutions) pi0 = std::min(pi0, s.i), pi1 = std::max(pi1, s.i), pj0 = std::min(pj0, s.j), pj1 = std::max(pj1, s.j);
-    int qi0 = INT32_MAX, qi1 = INT32_MIN, qj0 = INT32_MAX, qj1 = INT32_MIN;
-    for (const auto& s : seg.solutions) qi0 = std::min(qi0, s.i), qi1 = std::max(qi1, s.i), qj0 = std::min(qj0, s.j), qj1 = std::max(qj1, s.j);
+    const auto [pi0, pi1, pj0, pj1] = cell_box(prev.solutions);
+    const auto [qi0, qi1, qj0, qj1] = cell_box(seg.solutions);
     const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
     // The distance transform's grids span both groups' boxes: checked before allocating.
     budget::require_memory((std::uint64_t(pw) * ph + std::uint64_t(ph) * qw + std::uint64_t(qw) * qh) * 12,
@@ -230,8 +259,8 @@ void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, co
 
 // The same through another rotation dp of the segment before: the two point sets are not on one
 // grid, so the direct minimum, each state of `seg` on its own core's share.
-void other_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const std::vector<double>& g, const Eigen::Vector2d& a,
-                            const ChainWeights& w, int d, int dp, std::vector<double>& best, std::vector<PackedState>& arg) {
+void other_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, const PerSolution<double>& g, const Eigen::Vector2d& a,
+                            const ChainWeights& w, int d, int dp, PerSolution<double>& best, PerSolution<PackedState>& arg) {
     const double c = pair_factor(w);
     for_chunks(seg.solutions.size(), [&](std::size_t first, std::size_t last) {
         for (std::size_t j = first; j < last; ++j) {
@@ -250,37 +279,41 @@ ChainChoice solve_chain(const std::vector<ChainSegment>& segments, const ChainWe
     check(segments, w);
     const int rotations = int(w.a_rotations_rad.size());
     // cost[i][d][j] = best cost of segments 0..i ending in state (j, d); back[i][d][j] = (j', d') before it.
-    std::vector<std::vector<std::vector<double>>> cost(segments.size());
-    std::vector<std::vector<std::vector<PackedState>>> back(segments.size());
+    std::vector<std::vector<PerSolution<double>>> cost(segments.size());
+    std::vector<std::vector<PerSolution<PackedState>>> back(segments.size());
     for (std::size_t i = 0; i < segments.size(); ++i) {
         const auto& seg = segments[i];
         const std::size_t n = seg.solutions.size();
         if (i > 0 && segments[i - 1].solutions.size() * std::size_t(rotations) >= kNoState)
             throw Error(fmt::format("the DP: key segment {} has {} solutions at {} rotations, more states than it handles", i,
                                     segments[i - 1].solutions.size(), rotations));
-        cost[i].assign(std::size_t(rotations), std::vector<double>(n));
+        cost[i].assign(std::size_t(rotations), {});
         // Filled per rotation below (the first segment's are never read): a pre-filled copy beside
         // `arg` was a quarter gigabyte of the DP's peak at 5 mm.
         back[i].resize(std::size_t(rotations));
         for (int d = 0; d < rotations; ++d) {
-            std::vector<double>& here = cost[i][std::size_t(d)];
+            PerSolution<double>& here = cost[i][std::size_t(d)];
+            here.resize(n);  // every entry written by fill_unary
             fill_unary(seg, i, d, w, restrictions, here);
             if (i == 0) continue;
             const auto& prev = segments[i - 1];
             const Eigen::Vector2d a = displacement_term(prev, seg, w);
-            std::vector<double> best_step(n, kInf);
-            std::vector<PackedState> arg(n, kNoState);
+            PerSolution<double> best_step = filled(n, kInf);
+            PerSolution<PackedState> arg = filled(n, kNoState);
             for (int dp = 0; dp < rotations; ++dp) {
                 const auto& g = cost[i - 1][std::size_t(dp)];
                 if (dp == d) same_rotation_minimum(prev, seg, g, a, w, d, i, best_step, arg);
                 else other_rotation_minimum(prev, seg, g, a, w, d, dp, best_step, arg);
             }
-            for (std::size_t j = 0; j < n; ++j) here[j] += best_step[j];  // inf stays inf: a state no allowed path reaches
+            // inf stays inf: a state no allowed path reaches
+            for_chunks(n, [&](std::size_t first, std::size_t last) {
+                for (std::size_t j = first; j < last; ++j) here[j] += best_step[j];
+            });
             back[i][std::size_t(d)] = std::move(arg);
         }
         // Only the back pointers of earlier segments are read again: at 5 mm the costs of every
         // segment were a gigabyte beside the sweep's results.
-        if (i > 0) std::vector<std::vector<double>>().swap(cost[i - 1]);
+        if (i > 0) std::vector<PerSolution<double>>().swap(cost[i - 1]);
     }
     // The best final state; ties go to the first rotation, then the first solution in (theta, y, x) order.
     ChainChoice choice;
