@@ -1080,5 +1080,27 @@ TEST(Sweep, InteractionTypesParse) {
     EXPECT_THROW(parse_interaction_type("hug", "t"), Error);
 }
 
+// The outcome tallies (16 poses at a time, byte counters emptied every 255 blocks) are those of a
+// pose-by-pose count, over chunks of every length and runs long enough to wrap a byte counter.
+TEST(Sweep, OutcomeCountsAreThoseOfEveryPose) {
+    std::mt19937 random(41);
+    for (const std::size_t n : {std::size_t(0), std::size_t(7), std::size_t(16 * 255 + 5), std::size_t(5'000'003)}) {
+        SweepResult result;
+        result.outcomes.resize(n);
+        std::array<std::uint64_t, 5> expected{};
+        for (std::size_t p = 0; p < n;) {
+            // Long runs of one outcome, as a sweep leaves them.
+            const auto outcome = PoseOutcome(random() % 5);
+            const std::size_t run = std::min<std::size_t>(n - p, 1 + random() % 9000);
+            std::fill_n(result.outcomes.begin() + std::ptrdiff_t(p), run, outcome);
+            expected[std::size_t(outcome)] += run;
+            p += run;
+        }
+        result.count();
+        for (std::size_t o = 0; o < 4; ++o) EXPECT_EQ(result.rejected[o], expected[o]) << n << " outcome " << o;
+        EXPECT_EQ(result.solutions, expected[4]) << n;
+    }
+}
+
 }  // namespace
 }  // namespace amhv

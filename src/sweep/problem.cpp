@@ -1,8 +1,13 @@
 #include "src/sweep/problem.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
@@ -147,28 +152,55 @@ void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x
     if (y_range) narrow(range.j_first, range.j_last, *y_range);
 }
 
+namespace {
+
+using OutcomeTally = std::array<std::uint64_t, 5>;  // per PoseOutcome
+
+// The outcomes among n, 16 at a time: a byte counter per outcome and lane, added up every 255
+// blocks before it could wrap. A tally per pose waited on the counter it had just added to (most
+// poses fail contact in long runs): the count was 4% of a sweep at 5 mm.
+OutcomeTally tally_outcomes(const PoseOutcome* outcomes, std::size_t n) {
+    OutcomeTally tally{};
+    const auto* bytes = reinterpret_cast<const std::uint8_t*>(outcomes);
+    std::size_t p = 0;
+#ifdef __SSE2__
+    const __m128i zero = _mm_setzero_si128();
+    while (p + 16 <= n) {
+        __m128i counts[5] = {zero, zero, zero, zero, zero};
+        const std::size_t blocks = std::min<std::size_t>(255, (n - p) / 16);
+        for (std::size_t b = 0; b < blocks; ++b, p += 16) {
+            const __m128i block = _mm_loadu_si128(reinterpret_cast<const __m128i*>(bytes + p));
+            for (std::size_t o = 0; o < 5; ++o)
+                counts[o] = _mm_sub_epi8(counts[o], _mm_cmpeq_epi8(block, _mm_set1_epi8(char(o))));
+        }
+        for (std::size_t o = 0; o < 5; ++o) {
+            const __m128i sums = _mm_sad_epu8(counts[o], zero);  // two 64-bit lane sums
+            tally[o] += std::uint64_t(_mm_cvtsi128_si64(sums)) + std::uint64_t(_mm_cvtsi128_si64(_mm_unpackhi_epi64(sums, sums)));
+        }
+    }
+#endif
+    for (; p < n; ++p)
+        if (bytes[p] < tally.size()) ++tally[bytes[p]];
+    return tally;
+}
+
+}  // namespace
+
 void SweepResult::count() {
-    // Chunks on every core, each one pass with four tallies side by side: a run of equal outcomes
-    // (most poses fail contact in long runs) would otherwise wait on one counter per pose, and a
-    // branch per pose mispredicts. Integer sums, so the totals do not depend on the split.
-    using Tallies = std::array<std::array<std::uint64_t, 8>, 4>;
+    // Chunks on every core; integer sums, so the totals do not depend on the split.
     constexpr std::size_t kChunk = std::size_t(1) << 22;
     const std::size_t size = outcomes.size(), chunks = (size + kChunk - 1) / kChunk;
-    std::vector<Tallies> per_chunk(chunks, Tallies{});
+    std::vector<OutcomeTally> per_chunk(chunks, OutcomeTally{});
     parallel_for(chunks, [&](std::size_t c) {
-        Tallies& tallies = per_chunk[c];
-        const std::size_t first = c * kChunk, end = std::min(size, first + kChunk), whole = first + (end - first) / 4 * 4;
-        for (std::size_t p = first; p < whole; p += 4)
-            for (std::size_t t = 0; t < 4; ++t) ++tallies[t][std::size_t(outcomes[p + t]) & 7u];
-        for (std::size_t p = whole; p < end; ++p) ++tallies[0][std::size_t(outcomes[p]) & 7u];
+        const std::size_t first = c * kChunk;
+        per_chunk[c] = tally_outcomes(outcomes.data() + first, std::min(size, first + kChunk) - first);
     });
     rejected = {};
     solutions = 0;
-    for (const Tallies& tallies : per_chunk)
-        for (const auto& tally : tallies) {
-            for (std::size_t o = 0; o < rejected.size(); ++o) rejected[o] += tally[o];
-            solutions += tally[std::size_t(PoseOutcome::Solution)];
-        }
+    for (const OutcomeTally& tally : per_chunk) {
+        for (std::size_t o = 0; o < rejected.size(); ++o) rejected[o] += tally[o];
+        solutions += tally[std::size_t(PoseOutcome::Solution)];
+    }
 }
 
 std::string rejection_counts(const std::array<std::uint64_t, 4>& rejected) {
