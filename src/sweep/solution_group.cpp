@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <tuple>
 
 #include <Eigen/Geometry>
 
 #include "src/core/angles.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 
 namespace amhv {
 
@@ -63,8 +65,41 @@ bool SolutionGroup::any_raised() const {
     return std::any_of(runs_.begin(), runs_.end(), [](const PoseRun& r) { return r.l != 0; });
 }
 
-SolutionGroup solution_group(const SweepResult& result) {
-    return solution_group(result, [](const PoseIndex&) { return true; });
+namespace {
+
+// The runs of solutions `keep` keeps in slice (l, k), in (j, x) order.
+void slice_runs(const SweepResult& result, int l, int k, const std::function<bool(const PoseIndex&)>& keep, std::vector<PoseRun>& runs) {
+    const PoseRange& r = result.range;
+    const std::size_t width = std::size_t(r.i_last - r.i_first + 1);
+    for (int j = r.j_first; j <= r.j_last; ++j) {
+        // Solutions are rare: memchr skips to each.
+        const PoseOutcome* row = &result.outcomes[result.index(r.i_first, j, k, l)];
+        for (const void* at = std::memchr(row, int(PoseOutcome::Solution), width); at;) {
+            const std::size_t offset = std::size_t(static_cast<const PoseOutcome*>(at) - row);
+            const int i = r.i_first + int(offset);
+            if (!keep || keep(PoseIndex{i, j, k, l})) {
+                if (!runs.empty() && runs.back().j == j && runs.back().i_last + 1 == i) ++runs.back().i_last;
+                else runs.push_back({l, k, j, i, i});
+            }
+            at = std::memchr(row + offset + 1, int(PoseOutcome::Solution), width - offset - 1);
+        }
+    }
+}
+
+}  // namespace
+
+SolutionGroup solution_group(const SweepResult& result, const std::function<bool(const PoseIndex&)>& keep) {
+    SolutionGroup group;
+    const PoseRange& r = result.range;
+    if (r.i_last < r.i_first) return group;
+    const std::size_t slices = std::size_t(r.z_last - r.z_first + 1) * std::size_t(r.angles);
+    std::vector<std::vector<PoseRun>> runs(slices);
+    parallel_for(slices, [&](std::size_t s) {
+        slice_runs(result, r.z_first + int(s / std::size_t(r.angles)), int(s % std::size_t(r.angles)), keep, runs[s]);
+    });
+    for (const std::vector<PoseRun>& slice : runs)
+        for (const PoseRun& run : slice) group.add_run(run);
+    return group;
 }
 
 Solution PoseDescriber::operator()(const PoseIndex& p) const {

@@ -7,6 +7,7 @@
 // (the DP's state index). The descriptors (L, thetaA, thetaB) are computed from a pose when needed.
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -70,29 +71,10 @@ private:
     std::vector<std::uint64_t> starts_;  // member index of each run's first pose
 };
 
-// The sweep's solutions, less those `keep` refuses (the editor's limits): built one (l, k) slice at
-// a time from the outcomes, never as a list of poses.
-SolutionGroup solution_group(const SweepResult& result);
-template <typename Keep>
-SolutionGroup solution_group(const SweepResult& result, Keep&& keep) {
-    SolutionGroup group;
-    const PoseRange& r = result.range;
-    if (r.i_last < r.i_first) return group;
-    for (int l = r.z_first; l <= r.z_last; ++l)
-        for (int k = 0; k < r.angles; ++k)
-            for (int j = r.j_first; j <= r.j_last; ++j) {
-                // Solutions are rare: memchr skips to each.
-                const PoseOutcome* row = &result.outcomes[result.index(r.i_first, j, k, l)];
-                const std::size_t width = std::size_t(r.i_last - r.i_first + 1);
-                for (const void* at = std::memchr(row, int(PoseOutcome::Solution), width); at;) {
-                    const std::size_t offset = std::size_t(static_cast<const PoseOutcome*>(at) - row);
-                    const int i = r.i_first + int(offset);
-                    if (keep(PoseIndex{i, j, k, l})) group.add({i, j, k, l});
-                    at = std::memchr(row + offset + 1, int(PoseOutcome::Solution), width - offset - 1);
-                }
-            }
-    return group;
-}
+// The sweep's solutions, less those `keep` refuses (the editor's limits; null: none): found one
+// (l, k) slice at a time from the outcomes, on every core, never as a list of poses. `keep` is
+// called from several threads at once.
+SolutionGroup solution_group(const SweepResult& result, const std::function<bool(const PoseIndex&)>& keep = nullptr);
 
 // What the descriptors of a pose depend on: the lattice and the two facings (docs/method.md section 6).
 struct PoseDescriber {
