@@ -154,7 +154,8 @@ void narrow_range(PoseRange& range, double voxel, const std::array<double, 2>* x
 
 namespace {
 
-using OutcomeTally = std::array<std::uint64_t, 5>;  // per PoseOutcome
+constexpr std::size_t kOutcomes = std::size_t(PoseOutcome::Solution) + 1;
+using OutcomeTally = std::array<std::uint64_t, kOutcomes>;  // per PoseOutcome
 
 // The outcomes among n, 16 at a time: a byte counter per outcome and lane, added up every 255
 // blocks before it could wrap. A tally per pose waited on the counter it had just added to (most
@@ -166,14 +167,15 @@ OutcomeTally tally_outcomes(const PoseOutcome* outcomes, std::size_t n) {
 #ifdef __SSE2__
     const __m128i zero = _mm_setzero_si128();
     while (p + 16 <= n) {
-        __m128i counts[5] = {zero, zero, zero, zero, zero};
+        __m128i counts[kOutcomes];
+        std::fill(std::begin(counts), std::end(counts), zero);
         const std::size_t blocks = std::min<std::size_t>(255, (n - p) / 16);
         for (std::size_t b = 0; b < blocks; ++b, p += 16) {
             const __m128i block = _mm_loadu_si128(reinterpret_cast<const __m128i*>(bytes + p));
-            for (std::size_t o = 0; o < 5; ++o)
+            for (std::size_t o = 0; o < kOutcomes; ++o)
                 counts[o] = _mm_sub_epi8(counts[o], _mm_cmpeq_epi8(block, _mm_set1_epi8(char(o))));
         }
-        for (std::size_t o = 0; o < 5; ++o) {
+        for (std::size_t o = 0; o < kOutcomes; ++o) {
             const __m128i sums = _mm_sad_epu8(counts[o], zero);  // two 64-bit lane sums
             tally[o] += std::uint64_t(_mm_cvtsi128_si64(sums)) + std::uint64_t(_mm_cvtsi128_si64(_mm_unpackhi_epi64(sums, sums)));
         }

@@ -68,7 +68,7 @@ bool SolutionGroup::any_raised() const {
 namespace {
 
 // The runs of solutions `keep` keeps in slice (l, k), in (j, x) order.
-void slice_runs(const SweepResult& result, int l, int k, const std::function<bool(const PoseIndex&)>& keep, std::vector<PoseRun>& runs) {
+void solutions_of_slice(const SweepResult& result, int l, int k, const std::function<bool(const PoseIndex&)>& keep, std::vector<PoseRun>& runs) {
     const PoseRange& r = result.range;
     const std::size_t width = std::size_t(r.i_last - r.i_first + 1);
     for (int j = r.j_first; j <= r.j_last; ++j) {
@@ -95,7 +95,7 @@ SolutionGroup solution_group(const SweepResult& result, const std::function<bool
     const std::size_t slices = std::size_t(r.z_last - r.z_first + 1) * std::size_t(r.angles);
     std::vector<std::vector<PoseRun>> runs(slices);
     parallel_for(slices, [&](std::size_t s) {
-        slice_runs(result, r.z_first + int(s / std::size_t(r.angles)), int(s % std::size_t(r.angles)), keep, runs[s]);
+        solutions_of_slice(result, r.z_first + int(s / std::size_t(r.angles)), int(s % std::size_t(r.angles)), keep, runs[s]);
     });
     for (const std::vector<PoseRun>& slice : runs)
         for (const PoseRun& run : slice) group.add_run(run);

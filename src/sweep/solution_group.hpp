@@ -6,7 +6,6 @@
 // 72. The members keep the sweep's order (z, theta, y, x); member n is the n-th pose in that order
 // (the DP's state index). The descriptors (L, thetaA, thetaB) are computed from a pose when needed.
 #include <cstdint>
-#include <cstring>
 #include <functional>
 #include <vector>
 

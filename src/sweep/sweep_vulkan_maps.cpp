@@ -247,9 +247,9 @@ void AngleScratch::runs_of_pass(int pass, int passes, std::vector<std::span<cons
 // `scratch` (the first pass's rows start it afresh), each slot's and word's runs cut to the columns
 // that can reach that slot of the fixed volume from the box of the poses in play, and, where only
 // some poses are in play (`open`: per pose of the angle; null: all), only the runs that reach one
-// of them (RunsInPlay): the passes' pruning would drop the others. With `open`, the prefix sums
-// of the poses in play over `rows` are left in `pruner`.
-void SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
+// of them (RunsInPlay): the passes' pruning would drop the others. Returns whether it left the
+// prefix sums of the poses in play over `rows` in `pruner` (with `open`, where it cut).
+bool SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
                                const std::uint8_t* open, std::array<int, 2> row_passes, AngleScratch& scratch) const {
     if (row_passes[0] == 0) {
         scratch.by_pass.clear();
@@ -258,7 +258,7 @@ void SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
         scratch.cut = 0;
     }
     scratch.rows_through = row_passes[1];
-    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return;
+    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return false;
     const WordClips clips = word_clips(test.runs, range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
     const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
@@ -269,6 +269,7 @@ void SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
                                                                    clips, scratch.by_pass, how));
     scratch.pass_first.insert(scratch.pass_first.end(), pass_first.begin(), pass_first.end());
     scratch.cut += cut;
+    return open != nullptr;
 }
 
 // Gives each of an angle's pulled runs (of one map pass) the rows j it must be paired on: those
@@ -355,13 +356,14 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             // first pass's were cut against the candidates (the later stages: few poses in play),
             // so are they, against those still open; contact's and the dictionary's poses in play
             // are dense, and a filter there costs what the copies it saves do.
-            const bool cut_now = scratch.rows_through < pass;
-            const bool filter = cut_now && angle_open && runs_cut;
-            if (cut_now) cut_pulled_runs(pruner, test, angle_first + a, a, open_rows[std::size_t(a)], passes, filter ? angle_open : nullptr, {pass, pass}, scratch);
+            bool counted = false;  // the cut's prefix sums of the poses in play are the prune's
+            if (scratch.rows_through < pass)
+                counted = cut_pulled_runs(pruner, test, angle_first + a, a, open_rows[std::size_t(a)], passes, runs_cut ? angle_open : nullptr,
+                                          {pass, pass}, scratch);
             scratch.pruned.clear();
             scratch.runs_of_pass(pass, passes, parts);
             pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], a, parts, angle_open, scratch.pruned,
-                                                         filter);
+                                                         counted);
         });
         std::size_t total_runs = 0;
         int longest = 0;

@@ -241,7 +241,7 @@ private:
     std::vector<std::uint8_t> decide(int stage, const std::vector<Pose>& candidates, int angle_first, int batch_angles);
 
     // ---- maps (sweep_vulkan_maps.cpp) ----
-    void cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
+    bool cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int angle, int angle_in_batch, const Band& rows, int passes,
                          const std::uint8_t* open, std::array<int, 2> row_passes, AngleScratch& scratch) const;
     std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
                                     std::span<const std::span<const SliceRun>> runs, const std::uint8_t* open, std::vector<PulledRun>& out,
