@@ -472,6 +472,48 @@ TEST(Voxelise, ReusedVoxeliserMatchesReferenceOnEveryCall) {
     }
 }
 
+// A ScratchHold keeps the voxeliser's buffers between calls whatever their size (a series of
+// calls then allocates once: on a discrete GPU every allocation is a driver call that clears its
+// pages); without one, or once the last hold ends, buffers beyond the kept limit go back. The
+// volumes are the reference's either way.
+TEST(Voxelise, ScratchHoldKeepsBuffersUntilTheLastHoldEnds) {
+    std::vector<TriangleMesh> large, small;
+    for (int f = 0; f < 20; ++f) {
+        large.push_back(shapes::capsule({0.1 + 0.01 * f, 0.2, 0.1}, {0.6, 0.5 - 0.005 * f, 0.9}, 0.12, 12, 16));
+        if (f < 5) small.push_back(shapes::sphere({0.05 * f, 0.0, 0.2}, 0.08 + 0.01 * f, 12, 16));
+    }
+    const auto large_input = prepare_voxelisation(sequence_of(large), 0.006);
+    const auto small_input = prepare_voxelisation(sequence_of(small), 0.006);
+    ReferenceVoxeliser reference;
+    const Amhv large_expected = voxelise(large_input, reference), small_expected = voxelise(small_input, reference);
+    gpu::VulkanVoxeliser vulkan(test::context(), {.kept_bytes = 1});  // nothing is kept without a hold
+    const auto matches = [&](const VoxelisationInput& input, const Amhv& expected) {
+        expect_identical({expected, voxelise(input, vulkan), {}});
+        test::expect_no_validation_messages();
+    };
+    matches(large_input, large_expected);
+    EXPECT_EQ(vulkan.scratch_bytes(), 0u);
+    std::uint64_t kept = 0;
+    {
+        const Voxeliser::ScratchHold outer(vulkan);
+        {
+            const Voxeliser::ScratchHold inner(vulkan);
+            matches(large_input, large_expected);
+            kept = vulkan.scratch_bytes();
+            EXPECT_GT(kept, 0u);
+        }
+        // The outer hold still keeps them, and the smaller grid fits them: nothing is allocated.
+        EXPECT_EQ(vulkan.scratch_bytes(), kept);
+        matches(small_input, small_expected);
+        EXPECT_EQ(vulkan.scratch_bytes(), kept);
+        matches(large_input, large_expected);
+        EXPECT_EQ(vulkan.scratch_bytes(), kept);
+    }
+    EXPECT_EQ(vulkan.scratch_bytes(), 0u);
+    matches(small_input, small_expected);
+    EXPECT_EQ(vulkan.scratch_bytes(), 0u);
+}
+
 // Stacked slabs cross their shared columns twice each per frame. Ten slabs (20 crossings) put
 // every bucket beyond the register sort of 8 keys into the bitonic one of 32; twenty slabs (40)
 // beyond that into the sort in the key list (heap sort past 12 keys). Half of the columns of

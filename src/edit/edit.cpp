@@ -97,6 +97,7 @@ void sum_frame_centres(const Amhv& volume, const std::vector<std::vector<std::ui
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {
     // Frames are voxelised 32 at a time (one word of the mask) on a grid covering just those frames.
     std::vector<Eigen::Vector2d> roots(numbers.size());
+    const Voxeliser::ScratchHold hold(voxeliser);
     for (std::size_t first = 0; first < numbers.size(); first += 32) {
         const std::size_t count = std::min<std::size_t>(32, numbers.size() - first);
         std::vector<MeshFrame> merged(count);

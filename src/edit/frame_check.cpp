@@ -298,6 +298,7 @@ std::vector<FrameCheck> check_frames(const EditResult& edit, const std::vector<i
     std::vector<FrameCheck> checks(frames.size());
     std::vector<Pending> batch;
     bool skip_gaps = false;
+    const Voxeliser::ScratchHold hold(voxeliser);  // the batches share one set of scratch
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const int k = frames[i];
         FrameCheck& check = checks[i];

@@ -508,6 +508,7 @@ void group_side(SweepObject& a, ObjectSource& group, int first, const std::vecto
 
 SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
     SegmentBuild build;
+    const Voxeliser::ScratchHold hold(voxeliser);  // the segment's volumes share one set of scratch
     const int length_a = segment.a[1] - segment.a[0] + 1, length_b = segment.b[1] - segment.b[0] + 1;
     build.frames = scene.a_sets_time ? normalise_to_a(length_a, length_b) : normalise_pair(length_a, length_b);
     const double h = scene.sampling.voxel;

@@ -111,13 +111,18 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
 // Where each angle's poses start in `poses` (sorted by angle, as every stage keeps them), and the
 // end: per-angle work on them runs on all cores, each angle writing only its own poses' entries.
 std::vector<std::size_t> SweepRun::angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const {
+    // By binary search: a walk over every pose was, on a 16-core host, serial time in every stage.
     std::vector<std::size_t> starts(std::size_t(batch_angles) + 1, poses.size());
-    std::size_t p = 0;
-    for (int a = 0; a < batch_angles; ++a) {
-        starts[std::size_t(a)] = p;
-        while (p < poses.size() && poses[p][0] == angle_first + a) ++p;
+    for (int a = 0; a < batch_angles; ++a)
+        starts[std::size_t(a)] = std::size_t(std::partition_point(poses.begin(), poses.end(), [&](const Pose& q) { return q[0] < angle_first + a; }) -
+                                             poses.begin());
+    // Each angle's stretch must begin and end with that angle (and the batch's poses lie in it).
+    bool in_order = poses.empty() || (poses.front()[0] >= angle_first && poses.back()[0] < angle_first + batch_angles);
+    for (int a = 0; a < batch_angles && in_order; ++a) {
+        const std::size_t first = starts[std::size_t(a)], end = starts[std::size_t(a) + 1];
+        in_order = first == end || (poses[first][0] == angle_first + a && poses[end - 1][0] == angle_first + a);
     }
-    if (p != poses.size()) fail("sweep", "internal: a batch's poses are not in angle order");
+    if (!in_order) fail("sweep", "internal: a batch's poses are not in angle order");
     return starts;
 }
 
@@ -216,8 +221,12 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
     };
     std::vector<std::uint8_t> passes;
     Rows rows(std::size_t(batch_angles), {height_, -1, width_, -1});
-    std::vector<std::uint8_t> candidates(batch_poses, 0);
+    // Kept between stages and batches, each angle clearing its own: a fresh zeroed list was a
+    // serial clear of every pose of the batch in every stage.
+    std::vector<std::uint8_t>& candidates = candidates_scratch_;
+    candidates.resize(batch_poses);
     for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
+        std::fill_n(candidates.data() + a * per_angle_, per_angle_, std::uint8_t(0));
         Band band = rows[a];  // local: neighbouring angles' bands share a cache line
         for (std::size_t p = first; p < end; ++p) {
             const Pose& q = survivors[p];
@@ -258,14 +267,14 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
         kept[a + 1] = passed;
     });
     for (int a = 0; a < batch_angles; ++a) kept[std::size_t(a) + 1] += kept[std::size_t(a)];
-    // Angle a's passes land at or before its first pose, so angles move in order, each in place.
-    for (int a = 0; a < batch_angles; ++a) {
-        std::size_t next = kept[std::size_t(a)];
-        for (std::size_t p = starts[std::size_t(a)]; p < starts[std::size_t(a) + 1]; ++p)
-            if (passes[p]) survivors[next++] = survivors[p];
-    }
-    survivors.resize(kept.back());
-    return survivors;
+    // The passes of every angle at once, each into its own stretch (angle order).
+    std::vector<Pose> passed(kept.back());
+    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
+        std::size_t next = kept[a];
+        for (std::size_t p = first; p < end; ++p)
+            if (passes[p]) passed[next++] = survivors[p];
+    });
+    return passed;
 }
 
 }  // namespace sweep_detail

@@ -331,12 +331,20 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
     const int passes = map_passes();
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
-    std::vector<std::uint8_t>& open = open_scratch_;
-    if (candidates) open = *candidates;
-    else open.clear();
-    Rows open_rows = rows;  // per angle: the box of the poses in play
     // Host work per angle, on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
+    // Kept between maps and batches (the same size batch after batch: no clearing), filled per
+    // angle on all cores; without candidates it holds nothing until the first pass closes poses.
+    std::vector<std::uint8_t>& open = open_scratch_;
+    bool open_known = candidates != nullptr;
+    if (candidates) {
+        open.resize(candidates->size());
+        for_each_angle([&](int a) {
+            const std::size_t first = std::size_t(a) * per_angle_;
+            std::copy_n(candidates->data() + first, per_angle_, open.data() + first);
+        });
+    }
+    Rows open_rows = rows;  // per angle: the box of the poses in play
     if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows, nullptr);
     const int maps = test.maps_per_angle();
     const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
@@ -351,7 +359,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             thread_local PulledPruner pruner;
             thread_local std::vector<std::span<const SliceRun>> parts;
             AngleScratch& scratch = test.angles[std::size_t(a)];
-            const std::uint8_t* angle_open = open.empty() ? nullptr : open.data() + std::size_t(a) * per_angle_;
+            const std::uint8_t* angle_open = open_known ? open.data() + std::size_t(a) * per_angle_ : nullptr;
             // This pass's rows are cut now, within the box of the poses still in play. Where the
             // first pass's were cut against the candidates (the later stages: few poses in play),
             // so are they, against those still open; contact's and the dictionary's poses in play
@@ -378,15 +386,20 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         // fixed runs (uniform loops and loads across a subgroup).
         if (total_runs > 0) {
             pulled_.ensure(tools_.context, total_runs * sizeof(PulledRun));
+            std::vector<std::size_t> offsets(std::size_t(batch_angles), 0);
+            for (int a = 1; a < batch_angles; ++a) offsets[std::size_t(a)] = offsets[std::size_t(a) - 1] + test.angles[std::size_t(a) - 1].pruned.size();
             PulledRun* staged = pulled_.host<PulledRun>().data();
-            for (int a = 0; a < batch_angles; ++a) {
+            for_each_angle([&](int a) {
                 const auto& pruned = test.angles[std::size_t(a)].pruned;
-                staged = std::copy(pruned.begin(), pruned.end(), staged);
-            }
+                std::copy(pruned.begin(), pruned.end(), staged + offsets[std::size_t(a)]);
+            });
         }
         pulled_.copy_to_device(sequence_, total_runs * sizeof(PulledRun));
         dispatch_map_pass(test, total_runs, longest, map_bytes);
-        if (pass + 1 < passes) close_decided_poses(test, batch_angles, open, open_rows);
+        if (pass + 1 < passes) {
+            close_decided_poses(test, batch_angles, open_known, open, open_rows);
+            open_known = true;
+        }
     }
     return read_map(test, batch_angles);
 }
@@ -461,13 +474,16 @@ std::uint32_t overlap_found(const MapTest& test, const std::uint32_t* first, int
 
 // After a pass: poses where the overlap the test looks for is found are decided (it can only grow
 // with the passes left: an overlap test passes, a "must not meet" test fails, an every-frame test
-// has its frames); the box in play shrinks to the poses still open. Angles on all cores.
-void SweepRun::close_decided_poses(const MapTest& test, int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const {
+// has its frames); the box in play shrinks to the poses still open. Angles on all cores. Where
+// `open` is not known yet, every pose was open.
+void SweepRun::close_decided_poses(const MapTest& test, int batch_angles, bool open_known, std::vector<std::uint8_t>& open,
+                                   Rows& open_rows) const {
     const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     const int maps = test.maps_per_angle();
     const std::size_t stride = std::size_t(height_) * std::size_t(row_words_);
-    if (open.empty()) open.assign(per_angle_ * std::size_t(batch_angles), 1);
+    if (!open_known) open.resize(per_angle_ * std::size_t(batch_angles));
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        if (!open_known) std::fill_n(open.data() + a * per_angle_, per_angle_, std::uint8_t(1));
         Band& band = open_rows[a];
         Band still{height_, -1, width_, -1};
         for (int j = band[0]; j <= band[1]; ++j) {

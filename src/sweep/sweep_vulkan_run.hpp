@@ -261,7 +261,7 @@ private:
     void dispatch_map_pass(MapTest& test, std::size_t run_count, int longest, std::uint64_t map_bytes);
     // Submits the sequence and waits for it, counting the wait as the device's time.
     void submit_and_wait();
-    void close_decided_poses(const MapTest& test, int batch_angles, std::vector<std::uint8_t>& open, Rows& open_rows) const;
+    void close_decided_poses(const MapTest& test, int batch_angles, bool open_known, std::vector<std::uint8_t>& open, Rows& open_rows) const;
     std::vector<std::uint8_t> read_map(const MapTest& test, int batch_angles) const;
     bool maps_pay_off(int stage, std::size_t pose_count, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>& candidates) const;
 
@@ -303,6 +303,7 @@ private:
     MirroredBuffer poses_, pulled_, flags_, map_words_;
     // Scratch of the overlap maps, reused batch after batch (fresh buffers cost page faults).
     std::vector<std::uint8_t> open_scratch_;
+    std::vector<std::uint8_t> candidates_scratch_;  // later_stage's poses in play, per pose of the batch
     Buffer no_poses_;
 };
 

@@ -39,6 +39,31 @@ public:
     virtual std::string name() const = 0;
     // Sets the occupancy bits of every closed frame of `input` in `out` (zeroed, same grid/frames).
     virtual void voxelise_solid(const VoxelisationInput& input, Amhv& out) = 0;
+
+    // While one lives, the backend keeps its scratch between calls whatever its size, so that a
+    // series of calls (the frame roots' batches, the frame check's, a key segment's volumes)
+    // allocates it once; when the last one ends, scratch beyond the backend's usual limit goes
+    // back. On a discrete GPU every allocation is a driver call that clears its pages.
+    class ScratchHold {
+    public:
+        explicit ScratchHold(Voxeliser& voxeliser) : voxeliser_(voxeliser) { ++voxeliser_.holds_; }
+        ~ScratchHold() {
+            if (--voxeliser_.holds_ == 0) voxeliser_.scratch_released();
+        }
+        ScratchHold(const ScratchHold&) = delete;
+        ScratchHold& operator=(const ScratchHold&) = delete;
+
+    private:
+        Voxeliser& voxeliser_;
+    };
+
+protected:
+    bool scratch_held() const { return holds_ > 0; }
+    // The last hold ended: give back what the usual limit would not keep.
+    virtual void scratch_released() {}
+
+private:
+    int holds_ = 0;
 };
 
 // Conservative surface voxelisation of one frame: every voxel whose cube touches a triangle.

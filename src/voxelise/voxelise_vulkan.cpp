@@ -149,7 +149,7 @@ private:
     const std::uint64_t layer_bytes_;
     std::uint64_t budget_ = 0, key_limit_ = 0, item_limit_ = 0;
     std::vector<FramePlan>& frame_plans_;
-    bool in_place_ = false, host_clears_flips_ = false, buffers_prepared_ = false;
+    bool in_place_ = false, host_clears_flips_ = false;
     vk::DeviceSize import_alignment_ = 0;
     int frames_limit_ = 32;
     std::uint64_t key_room_ = 0, slab_bytes_ = 0;
@@ -175,16 +175,24 @@ VulkanVoxeliser::Call::Call(VulkanVoxeliser& voxeliser, const VoxelisationInput&
       room_row_(std::size_t(nx_ + 1)),
       room_edges_per_frame_(room_row_ * std::size_t(ny_)) {}
 
-// After the call, buffers (then host lists) beyond kKeptBytes go back.
+// After the call, unless a ScratchHold keeps them for the next one.
 VulkanVoxeliser::Call::~Call() {
-    if (buffers_prepared_) {
-        std::uint64_t total = 0;
-        for (auto* buffer : v_.buffers_.all()) total += *buffer ? (*buffer)->size() : 0;
-        if (total > kKeptBytes)
-            for (auto* buffer : v_.buffers_.all()) buffer->reset();
-    }
-    if (v_.host_->bytes() > kKeptBytes) *v_.host_ = {};
+    if (!v_.scratch_held()) v_.release_large_scratch();
 }
+
+std::uint64_t VulkanVoxeliser::scratch_bytes() const {
+    std::uint64_t total = 0;
+    for (const auto* buffer : buffers_.all()) total += *buffer ? (*buffer)->size() : 0;
+    return total;
+}
+
+void VulkanVoxeliser::release_large_scratch() {
+    if (scratch_bytes() > options_.kept_bytes)
+        for (auto* buffer : buffers_.all()) buffer->reset();
+    if (host_->bytes() > options_.kept_bytes) *host_ = {};
+}
+
+void VulkanVoxeliser::scratch_released() { release_large_scratch(); }
 
 // The largest single buffer the call uses.
 std::uint64_t VulkanVoxeliser::Call::storage_budget() const {
@@ -295,7 +303,6 @@ VulkanVoxeliser::Call::Batch VulkanVoxeliser::Call::batch_at(int first, int word
 void VulkanVoxeliser::Call::prepare_buffers() {
     Context& context = v_.context_;
     Buffers& b = v_.buffers_;
-    buffers_prepared_ = true;
     const std::uint64_t bucket_bytes = layer_bytes_ * std::uint64_t(v_.plan_.frames_per_batch);
     if (!in_place_) ensure_capacity(context, b.mask, slab_bytes_, Buffer::Memory::Host);
     // Where the device works in host memory, the flips are host-visible and the host clears, before

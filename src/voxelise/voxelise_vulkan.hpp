@@ -38,6 +38,9 @@ struct VoxeliserOptions {
     // Plan small triangles' columns as exact coverage masks (fixed::coverage_mask) where the host
     // has AVX2; false: cross-sections for every triangle, as on hosts without it. Tests use both.
     bool coverage_masks = true;
+    // Scratch (device buffers, then host lists) kept between calls while it stays under this in
+    // all; a Voxeliser::ScratchHold keeps it whatever its size until the hold ends. Tests lower it.
+    std::uint64_t kept_bytes = std::uint64_t(512) << 20;
 };
 
 class VulkanVoxeliser final : public Voxeliser {
@@ -59,6 +62,8 @@ public:
         std::uint64_t key_capacity = 0;   // crossing keys the largest batch may write (an upper bound)
     };
     const Plan& last_plan() const { return plan_; }
+    // The bytes of the device buffers kept for the next call.
+    std::uint64_t scratch_bytes() const;
 
     static constexpr int kWorkgroup = 64;
     static constexpr std::uint32_t kLargeKeys = 32;    // voxelise_columns.comp's LARGE_KEYS
@@ -69,6 +74,9 @@ public:
 
 private:
     class Call;  // one call of voxelise_solid, as named steps
+    void scratch_released() override;
+    // Buffers, then host lists, beyond options_.kept_bytes go back.
+    void release_large_scratch();
     // `kernels`: kernel_specs(options), built.
     VulkanVoxeliser(Context& context, VoxeliserOptions options, std::vector<Kernel> kernels);
     static std::vector<KernelSpec> kernel_specs(const VoxeliserOptions& options);
@@ -81,15 +89,17 @@ private:
     Kernel flip_huge_;      // voxelise_columns.comp, stage FLIP_HUGE
     Kernel write_columns_;  // voxelise_columns.comp, stage WRITE
     Plan plan_;
-    // Scratch kept between calls while it stays under kKeptBytes in all.
-    static constexpr std::uint64_t kKeptBytes = std::uint64_t(512) << 20;
     struct Buffers {
         std::unique_ptr<Buffer> mask, toggles, bucket_start, bucket_cursor, keys, overflow, column_frames, spans, large_buckets, huge_buckets, lists;
         std::unique_ptr<Buffer> medium_buckets, work_items;
-        std::array<std::unique_ptr<Buffer>*, 13> all() {
-            return {&mask,          &toggles,       &bucket_start, &bucket_cursor, &keys,           &overflow,  &column_frames,
-                    &spans,         &large_buckets, &huge_buckets, &lists,         &medium_buckets, &work_items};
+        // Every buffer (const or not, as the Buffers are).
+        template <typename Self>
+        static auto all_of(Self& b) {
+            return std::array{&b.mask,          &b.toggles,       &b.bucket_start, &b.bucket_cursor, &b.keys,           &b.overflow,  &b.column_frames,
+                              &b.spans,         &b.large_buckets, &b.huge_buckets, &b.lists,         &b.medium_buckets, &b.work_items};
         }
+        auto all() { return all_of(*this); }
+        auto all() const { return all_of(*this); }
     };
     Buffers buffers_;
     // The host's lists (each frame's plan, the bucket rooms), kept between calls like the buffers:
