@@ -385,14 +385,14 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         // angle order sorts the batch: neighbouring invocations with the same key walk the same
         // fixed runs (uniform loops and loads across a subgroup).
         if (total_runs > 0) {
+            // On one thread: a pass's pruned runs are few (thousands to hundreds of thousands, a
+            // few MB at most), less than a round over the cores costs on a 16-core host.
             pulled_.ensure(tools_.context, total_runs * sizeof(PulledRun));
-            std::vector<std::size_t> offsets(std::size_t(batch_angles), 0);
-            for (int a = 1; a < batch_angles; ++a) offsets[std::size_t(a)] = offsets[std::size_t(a) - 1] + test.angles[std::size_t(a) - 1].pruned.size();
             PulledRun* staged = pulled_.host<PulledRun>().data();
-            for_each_angle([&](int a) {
+            for (int a = 0; a < batch_angles; ++a) {
                 const auto& pruned = test.angles[std::size_t(a)].pruned;
-                std::copy(pruned.begin(), pruned.end(), staged + offsets[std::size_t(a)]);
-            });
+                staged = std::copy(pruned.begin(), pruned.end(), staged);
+            }
         }
         pulled_.copy_to_device(sequence_, total_runs * sizeof(PulledRun));
         dispatch_map_pass(test, total_runs, longest, map_bytes);
