@@ -48,7 +48,7 @@ public:
     public:
         explicit ScratchHold(Voxeliser& voxeliser) : voxeliser_(voxeliser) { ++voxeliser_.holds_; }
         ~ScratchHold() {
-            if (--voxeliser_.holds_ == 0) voxeliser_.scratch_released();
+            if (--voxeliser_.holds_ == 0) voxeliser_.release_scratch_over_limit();
         }
         ScratchHold(const ScratchHold&) = delete;
         ScratchHold& operator=(const ScratchHold&) = delete;
@@ -59,8 +59,9 @@ public:
 
 protected:
     bool scratch_held() const { return holds_ > 0; }
-    // The last hold ended: give back what the usual limit would not keep.
-    virtual void scratch_released() {}
+    // Gives back the scratch over the backend's usual limit: after a call no hold keeps, and when
+    // the last hold ends.
+    virtual void release_scratch_over_limit() {}
 
 private:
     int holds_ = 0;

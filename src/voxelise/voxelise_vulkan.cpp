@@ -177,7 +177,7 @@ VulkanVoxeliser::Call::Call(VulkanVoxeliser& voxeliser, const VoxelisationInput&
 
 // After the call, unless a ScratchHold keeps them for the next one.
 VulkanVoxeliser::Call::~Call() {
-    if (!v_.scratch_held()) v_.release_large_scratch();
+    if (!v_.scratch_held()) v_.release_scratch_over_limit();
 }
 
 std::uint64_t VulkanVoxeliser::scratch_bytes() const {
@@ -186,13 +186,11 @@ std::uint64_t VulkanVoxeliser::scratch_bytes() const {
     return total;
 }
 
-void VulkanVoxeliser::release_large_scratch() {
+void VulkanVoxeliser::release_scratch_over_limit() {
     if (scratch_bytes() > options_.kept_bytes)
         for (auto* buffer : buffers_.all()) buffer->reset();
     if (host_->bytes() > options_.kept_bytes) *host_ = {};
 }
-
-void VulkanVoxeliser::scratch_released() { release_large_scratch(); }
 
 // The largest single buffer the call uses.
 std::uint64_t VulkanVoxeliser::Call::storage_budget() const {

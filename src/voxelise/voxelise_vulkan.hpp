@@ -74,9 +74,8 @@ public:
 
 private:
     class Call;  // one call of voxelise_solid, as named steps
-    void scratch_released() override;
     // Buffers, then host lists, beyond options_.kept_bytes go back.
-    void release_large_scratch();
+    void release_scratch_over_limit() override;
     // `kernels`: kernel_specs(options), built.
     VulkanVoxeliser(Context& context, VoxeliserOptions options, std::vector<Kernel> kernels);
     static std::vector<KernelSpec> kernel_specs(const VoxeliserOptions& options);
