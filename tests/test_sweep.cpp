@@ -599,6 +599,15 @@ TEST(Sweep, WorkSplittingMatchesReference) {
             gpu::VulkanSweeper tiny(test::context(), {.loop_budget = 200, .block = 2, .maps = false});
             EXPECT_EQ(tiny.sweep(seen).outcomes, per_frame.reference.outcomes);
             test::expect_no_validation_messages();
+            // By maps: A's cone against B's body, then B's cone against A's body on the poses the
+            // first map passed (SweepRun::keep_passed), each over every frame.
+            for (int passes : {5, 1}) {
+                gpu::VulkanSweeper mapped(test::context(), {.pose_test_pairs = 1e12, .map_passes = passes});
+                EXPECT_EQ(mapped.sweep(seen).outcomes, per_frame.reference.outcomes) << passes;
+                const auto& stats = mapped.last_stats();
+                EXPECT_GT(stats.maps_per_stage[3], 0u);
+                EXPECT_EQ(stats.maps_per_stage[3] % 2, 0u) << "both cones' maps in every batch";
+            }
             seen.visibility_frames = 31;  // A looks ahead on 30 frames only
             auto too_many = sweep_both(seen);
             expect_identical(too_many);

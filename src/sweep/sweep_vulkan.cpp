@@ -210,6 +210,21 @@ std::vector<Pose> SweepRun::contact_pose_by_pose(int angle_first, int batch_angl
     return survivors;
 }
 
+// Clears the candidates (per pose of the batch) that `meets` fails and shrinks each angle's box
+// to those left; angles on all cores.
+void SweepRun::keep_passed(const std::vector<std::uint8_t>& meets, int batch_angles, std::vector<std::uint8_t>& candidates, Rows& rows) const {
+    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+        Band& band = rows[a];
+        Band still{height_, -1, width_, -1};
+        for (int j = band[0]; j <= band[1]; ++j) {
+            const std::size_t row = a * per_angle_ + std::size_t(j) * std::size_t(width_);
+            for (int i = band[2]; i <= band[3]; ++i) candidates[row + std::size_t(i)] &= meets[row + std::size_t(i)];
+            widen_by_flags(still, candidates.data() + row, j, band[2], band[3]);
+        }
+        band = still;
+    });
+}
+
 // Stage 1..3 on the survivors of the stage before, by maps where the cost model says they pay off,
 // else pose by pose. Returns the poses that pass; the rest get this stage's outcome.
 std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles) {
@@ -240,13 +255,20 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
     // just before their first pass. (Cutting the sample alone, on one core, cost as much as the
     // maps at 5 mm; the other angles' later rows, cut up front, were mostly runs that only poses
     // decided by the first passes could have used.)
-    const bool may_map = !optional_maps_[std::size_t(stage)].empty() && !survivors.empty();
+    std::vector<MapTest>& maps = optional_maps_[std::size_t(stage)];
+    const bool may_map = !maps.empty() && !survivors.empty();
     if (may_map)
-        for (MapTest& test : optional_maps_[std::size_t(stage)]) cut_angles(test, angle_first, batch_angles, rows, &candidates, model_sample(rows));
+        for (MapTest& test : maps) cut_angles(test, angle_first, batch_angles, rows, &candidates, model_sample(rows));
     if (may_map && maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates)) {
         Meets meets;
-        for (MapTest& test : optional_maps_[std::size_t(stage)])
-            meets.push_back(run_map(test, stage, angle_first, batch_angles, rows, &candidates, true));
+        for (std::size_t m = 0; m < maps.size(); ++m) {
+            // A pose that fails one test of the stage fails the stage: each later map needs only
+            // the poses the ones before passed. Its first pass, cut up front, then prunes against
+            // those, and its later passes are cut within their box. (Cutting the first pass again
+            // against them paid nothing: the runs it would drop, the pruning drops.)
+            if (m > 0) keep_passed(meets.back(), batch_angles, candidates, rows);
+            meets.push_back(run_map(maps[m], stage, angle_first, batch_angles, rows, &candidates, true));
+        }
         passes.resize(survivors.size());
         // The maps hold the batch's poses in outcome order, starting at angle_first.
         for_each_angle([&](std::size_t, std::size_t first, std::size_t end) {

@@ -273,6 +273,7 @@ private:
     std::vector<Pose> contact_pose_by_pose(int angle_first, int batch_angles);
     std::vector<Pose> later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles);
     std::vector<std::size_t> angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const;
+    void keep_passed(const std::vector<std::uint8_t>& meets, int batch_angles, std::vector<std::uint8_t>& candidates, Rows& rows) const;
 
     const SweepProblem& problem_;
     SweepTools tools_;
