@@ -400,6 +400,45 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
     EXPECT_GT(raised_solutions, 0u);
 }
 
+// Every height of a z range shares A's side (HeightShare): A's volumes are built once, in a z frame
+// that covers every height, by maps and pose by pose; each height's outcomes are those of a sweep
+// of that height alone (its own, narrower frame) and the reference's.
+TEST(Sweep, HeightsShareAsSide) {
+    std::mt19937 random(1);
+    const double h = 0.03;
+    const int frames = 9;
+    Performer a = random_performer(random, frames, true), b = random_performer(random, frames, true);
+    auto problem = problem_of(object_from("A", a, h), object_from("B", b, h, {}, -Eigen::Vector2d::UnitX()), "0&0a", h, 30);
+    problem.contact_frames = 3;
+    problem.visibility = true;
+    problem.visibility_frames = 2;
+    add_frame_cones(problem, random);
+    problem.range.z_first = -2;
+    problem.range.z_last = 3;
+    const auto both = sweep_both(problem);
+    expect_identical(both);
+    EXPECT_GT(both.gpu.solutions, 0u);
+    EXPECT_GT(both.gpu.rejected[3], 0u);
+    for (const auto& options : {gpu::SweeperOptions{.pose_test_pairs = 1e12}, gpu::SweeperOptions{.block = 3, .maps = false}}) {
+        gpu::VulkanSweeper sweeper(test::context(), options);
+        EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "maps " << options.maps;
+        const std::uint64_t built = sweeper.last_stats().fixed_volumes_built;
+        SweepProblem one = problem;
+        std::uint64_t most_for_one = 0;
+        for (int level = problem.range.z_first; level <= problem.range.z_last; ++level) {
+            one.range.z_first = one.range.z_last = level;
+            const SweepResult alone = sweeper.sweep(one);
+            most_for_one = std::max(most_for_one, sweeper.last_stats().fixed_volumes_built);
+            ASSERT_EQ(alone.outcomes.size(), problem.range.per_level());
+            const std::size_t first = std::size_t(level - problem.range.z_first) * problem.range.per_level();
+            EXPECT_TRUE(std::equal(alone.outcomes.begin(), alone.outcomes.end(), both.gpu.outcomes.begin() + std::ptrdiff_t(first))) << level;
+        }
+        EXPECT_GT(built, 0u);
+        EXPECT_EQ(built, most_for_one) << "A's volumes built once for the six heights, as for one";
+        test::expect_no_validation_messages();
+    }
+}
+
 // A solid block of poses is stored as tiles (a few bytes) and reads back pose for pose.
 TEST(Sweep, GroupVdbStoresSolidBlocksAsTilesAndReadsThemBack) {
     SolutionGroup group;

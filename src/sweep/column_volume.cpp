@@ -55,7 +55,7 @@ void set_bits(std::uint32_t* words, std::int64_t first, std::int64_t last) {
 
 }  // namespace
 
-ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised, int lift) {
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised, int lift, int lift_last) {
     std::int64_t first = std::numeric_limits<std::int64_t>::max(), last = std::numeric_limits<std::int64_t>::min();
     auto cover = [&](const VoxelGrid* g, int by) {
         if (g->dims[2] == 0) return;
@@ -64,7 +64,7 @@ ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::v
         last = std::max(last, z0 + g->dims[2] - 1);
     };
     for (const VoxelGrid* g : grids) cover(g, 0);
-    for (const VoxelGrid* g : raised) cover(g, lift);
+    for (const VoxelGrid* g : raised) cover(g, lift), cover(g, std::max(lift, lift_last));
     if (first > last) return {0, 1};
     return {first, int((last - first) / 32 + 1)};
 }

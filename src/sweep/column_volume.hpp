@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "src/core/amhv.hpp"
@@ -21,8 +22,10 @@ struct ZFrame {
     int words = 0;
 };
 
-// The z frame covering every grid given, the grids in `raised` lifted by `lift` voxels.
-ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised = {}, int lift = 0);
+// The z frame covering every grid given, the grids in `raised` lifted by every lift from `lift`
+// to `lift_last` voxels (only by `lift` where lift_last is less).
+ZFrame z_frame_covering(const std::vector<const VoxelGrid*>& grids, const std::vector<const VoxelGrid*>& raised = {}, int lift = 0,
+                        int lift_last = std::numeric_limits<int>::min());
 // The same frame as seen from a volume raised by `lift` voxels: its voxel z lands on bit z + lift.
 inline ZFrame raised_frame(const ZFrame& z, int lift) { return {z.z_first - lift, z.words}; }
 

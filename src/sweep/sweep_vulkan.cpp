@@ -36,18 +36,20 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     stats_ = {};
     const PoseRange& r = problem.range;
     if (r.depth() == 1) {  // one height: the run's outcomes are the result (no second copy)
-        SweepResult result = SweepRun(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress}, r.z_first).run();
+        HeightShare share;
+        SweepResult result = SweepRun(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress}, share, r.z_first).run();
         result.range = r;
         return result;
     }
     SweepResult result;
     result.range = r;
     result.outcomes.resize(r.size());  // FailsContact (zero), on pages untouched until written
+    HeightShare share;
     for (int level = r.z_first; level <= r.z_last; ++level) {
         const int swept = problem.angle_end() - problem.first_angle, done_before = (level - r.z_first) * swept;
         std::function<void(int, int)> level_progress;
         if (progress) level_progress = [&](int done, int) { progress(done_before + done, swept * r.depth()); };
-        SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, level_progress}, level);
+        SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, level_progress}, share, level);
         const SweepResult level_result = run.run();
         std::copy(level_result.outcomes.begin(), level_result.outcomes.end(),
                   result.outcomes.begin() + std::ptrdiff_t(std::size_t(level - r.z_first) * r.per_level()));

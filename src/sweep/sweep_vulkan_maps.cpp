@@ -138,7 +138,7 @@ private:
 
 // A pulled run's key minus this is its fixed run's key: pulled keys start at each angle's block.
 std::int32_t key_base_of(const MapTest& test, int angle_in_batch) {
-    return std::int32_t(angle_in_batch) * test.runs.zbits * std::int32_t(test.slots.size());
+    return std::int32_t(angle_in_batch) * test.runs().zbits * std::int32_t(test.slots.size());
 }
 
 // The fixed runs a pulled run's key holds, summed over `runs` (of angle `angle_in_batch`): at
@@ -146,7 +146,7 @@ std::int32_t key_base_of(const MapTest& test, int angle_in_batch) {
 std::uint64_t pairs_at_most(const MapTest& test, int angle_in_batch, std::span<const SliceRun> runs) {
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
     std::uint64_t pairs = 0;
-    for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs.by_key[std::size_t(run.key - key_base)][1]);
+    for (const SliceRun& run : runs) pairs += std::uint64_t(test.runs().by_key[std::size_t(run.key - key_base)][1]);
     return pairs;
 }
 
@@ -160,7 +160,7 @@ Band reach_of(const MapTest& test, int angle_in_batch, std::span<const std::span
                std::numeric_limits<std::int32_t>::min()};
     for (const std::span<const SliceRun> runs : parts)
         for (const SliceRun& run : runs) {
-            const auto& box = test.runs.key_boxes[std::size_t(run.key - key_base)];
+            const auto& box = test.runs().key_boxes[std::size_t(run.key - key_base)];
             if (box[0] > box[1]) continue;
             reach = {std::min(reach[0], box[2] - run.y), std::max(reach[1], box[3] - run.y), std::min(reach[2], box[0] - run.x_last),
                      std::max(reach[3], box[1] - run.x_first)};
@@ -222,8 +222,8 @@ void prune_part(const MapTest& test, const RunsInPlay& in_play, std::int32_t key
         const auto band = in_play.band(run);
         if (!band) continue;
         const auto [j0, j1] = *band;
-        const auto [key_first, key_count] = test.runs.by_key[std::size_t(run.key - key_base)];
-        const auto key_begin = test.runs.runs.begin() + key_first, key_end = key_begin + key_count;
+        const auto [key_first, key_count] = test.runs().by_key[std::size_t(run.key - key_base)];
+        const auto key_begin = test.runs().runs.begin() + key_first, key_end = key_begin + key_count;
         const auto from = std::lower_bound(key_begin, key_end, run.y + j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
         const auto to = std::upper_bound(from, key_end, run.y + j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
         pairs += std::uint64_t(to - from);
@@ -258,10 +258,10 @@ bool SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
         scratch.cut = 0;
     }
     scratch.rows_through = row_passes[1];
-    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs.runs.empty()) return false;
-    const WordClips clips = word_clips(test.runs, range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
+    if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs().runs.empty()) return false;
+    const WordClips clips = word_clips(test.runs(), range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
-    const RunsInPlay in_play(pruner, test.runs, rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
+    const RunsInPlay in_play(pruner, test.runs(), rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     std::vector<std::size_t> pass_first;
     std::size_t cut = 0;
     const PulledCut how{MapPasses{passes, test.z_phase}, row_passes[0], row_passes[1], &pass_first, open ? &in_play : nullptr, &cut};
@@ -292,7 +292,7 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
         count_poses_in_play(pruner, open, reach, width_, height_);
     }
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
-    const RunsInPlay in_play(pruner, test.runs, rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
+    const RunsInPlay in_play(pruner, test.runs(), rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
     for (const std::span<const SliceRun> runs : parts)
         prune_part(test, in_play, key_base, range_.j_first, runs, pairs, out);
     return pairs;
@@ -410,18 +410,18 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
     if (run_count > 0) {
         const std::uint32_t budget = tools_.options.loop_budget;
         // Loop steps: the binary search, then per fixed run its test and the words its interval spans.
-        const std::uint64_t search = 34, per_run = std::uint64_t(test.runs.longest + longest) / 32 + 4;
+        const std::uint64_t search = 34, per_run = std::uint64_t(test.runs().longest + longest) / 32 + 4;
         if (search + per_run > budget)
-            fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs.longest + longest);
+            fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs().longest + longest);
         const int runs_per_chunk = int((budget - search) / per_run);
-        const int chunks = std::max(1, (test.runs.most_per_key + runs_per_chunk - 1) / runs_per_chunk);
+        const int chunks = std::max(1, (test.runs().most_per_key + runs_per_chunk - 1) / runs_per_chunk);
         const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-        set.emplace(tools_.map.bind({test.fixed_runs.get(), test.fixed_keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
+        set.emplace(tools_.map.bind({test.fixed_side->packed.get(), test.fixed_side->keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
         // The words the maps' texel view covers (Kernel::bind cuts it to the device's limit).
         const std::uint32_t texel_words = std::uint32_t(std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements));
-        const MapParams params{0, 0, chunks, runs_per_chunk, test.runs.zbits, std::int32_t(test.slots.size()),
+        const MapParams params{0, 0, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
                                test.pulled_x0, texel_words};

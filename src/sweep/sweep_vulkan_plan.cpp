@@ -17,21 +17,53 @@ PoseRange level_of(PoseRange range, int level) {
 }
 
 // Column volumes to build, each a plain function of the segment's volumes: they are built on all
-// cores (a serial step of every sweep before), then added in the order they were asked for.
+// cores (a serial step of every sweep before), then added in the order they were asked for. A's
+// volumes go to the sweep's HeightShare, by name, and are built only by the first height's run.
 class ColumnJobs {
 public:
+    ColumnJobs(HeightShare& share, std::uint64_t& fixed_built) : share_(share), fixed_built_(fixed_built) {}
+    // B's volume: this height's own.
     std::size_t add(std::function<ColumnVolume()> job) {
-        jobs_.push_back(std::move(job));
+        jobs_.push_back({std::move(job), {}});
         return jobs_.size() - 1;
     }
-    std::vector<ColumnVolume> run() const {
+    // A's volume `name` (unique among A's volumes of the sweep), shared by every height.
+    std::size_t add_fixed(std::string name, std::function<ColumnVolume()> job) {
+        if (share_.fixed.count(name)) job = nullptr;
+        jobs_.push_back({std::move(job), std::move(name)});
+        return jobs_.size() - 1;
+    }
+    // Every volume asked for, in order: B's added to the run by `add_moving`.
+    std::vector<GpuVolume*> run(const std::function<GpuVolume*(ColumnVolume)>& add_moving) const {
         std::vector<ColumnVolume> built(jobs_.size());
-        parallel_for(jobs_.size(), [&](std::size_t k) { built[k] = jobs_[k](); });
-        return built;
+        parallel_for(jobs_.size(), [&](std::size_t k) {
+            if (jobs_[k].build) built[k] = jobs_[k].build();
+        });
+        std::vector<GpuVolume*> volumes;
+        for (std::size_t k = 0; k < jobs_.size(); ++k) {
+            if (jobs_[k].fixed_name.empty()) {
+                volumes.push_back(add_moving(std::move(built[k])));
+                continue;
+            }
+            std::unique_ptr<GpuVolume>& shared = share_.fixed[jobs_[k].fixed_name];
+            if (!shared) {
+                shared = std::make_unique<GpuVolume>();
+                shared->columns = std::move(built[k]);
+                ++fixed_built_;
+            }
+            volumes.push_back(shared.get());
+        }
+        return volumes;
     }
 
 private:
-    std::vector<std::function<ColumnVolume()>> jobs_;
+    struct Job {
+        std::function<ColumnVolume()> build;  // null: A's volume is shared already
+        std::string fixed_name;               // empty: B's
+    };
+    HeightShare& share_;
+    std::uint64_t& fixed_built_;
+    std::vector<Job> jobs_;
 };
 
 // An overlap test of stage `stage` on the column volumes `fixed` and `moving` (ColumnJobs indices).
@@ -45,9 +77,10 @@ struct PlannedTest {
 
 }  // namespace
 
-SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, int level)
+SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level)
     : problem_(problem),
       tools_(tools),
+      share_(share),
       frames_(problem.frames()),
       last_(problem.frames() - 1),
       type_(problem.type),
@@ -62,7 +95,8 @@ SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, int level)
         fail("key segment", "has {} normalised frames; the sweep handles at most {}", frames_, VulkanSweeper::kMaxFrameWords * 32);
     std::vector<const VoxelGrid*> grids_a{&problem.a.whole.grid()}, grids_b{&problem.b.whole.grid()};
     if (problem.visibility) grids_a.push_back(&problem.a.view_cone.grid), grids_b.push_back(&problem.b.view_cone.grid);
-    z_ = z_frame_covering(grids_a, grids_b, level);
+    // One frame for every height, so that A's volumes are the same bits at each (HeightShare).
+    z_ = z_frame_covering(grids_a, grids_b, problem.range.z_first, problem.range.z_last);
     z_b_ = raised_frame(z_, level);
     plan_stages();
     for (int stage = 0; stage < 4; ++stage)
@@ -100,22 +134,23 @@ GpuVolume* SweepRun::add(ColumnVolume columns) {
 void SweepRun::plan_stages() {
     const SweepObject& A = problem_.a;
     const SweepObject& B = problem_.b;
-    ColumnJobs jobs;
+    ColumnJobs jobs(share_, tools_.stats.fixed_volumes_built);
     const bool frames_of_interest = type_.lateral_pair() && (type_.variant == 'a' || type_.variant == 'b');
-    const std::size_t interest_a = jobs.add([&] { return columns_of(A.interest, z_, frames_of_interest); });
+    const std::size_t interest_a = jobs.add_fixed("interest", [&] { return columns_of(A.interest, z_, frames_of_interest); });
     const std::size_t interest_b = jobs.add([&] { return columns_of(B.interest, z_b_, frames_of_interest); });
     std::vector<PlannedTest> planned{{0, interest_a, interest_b, 0, Want::Overlap}};
     const int last = last_, tolerance = problem_.tolerance;
-    auto off_surface = [&](const Amhv& volume, SurfaceLabel label, const ZFrame& z) {
-        return jobs.add([&volume, label, &z, last, tolerance] {
+    auto off_surface = [last, tolerance](const Amhv& volume, SurfaceLabel label, const ZFrame& z) {
+        return [&volume, label, &z, last, tolerance] {
             return columns_where(volume, z, [&, label](std::size_t v) {
                 return label == SurfaceLabel::Plus ? volume.t_end(v) < last - tolerance : volume.t_start(v) > tolerance;
             });
-        });
+        };
     };
     if (!type_.lateral_pair()) {
-        if (type_.a != SurfaceLabel::Lateral) planned.push_back({1, off_surface(A.interest, type_.a, z_), interest_b, 0, Want::NoOverlap});
-        if (type_.b != SurfaceLabel::Lateral) planned.push_back({1, interest_a, off_surface(B.interest, type_.b, z_b_), 0, Want::NoOverlap});
+        if (type_.a != SurfaceLabel::Lateral)
+            planned.push_back({1, jobs.add_fixed("off surface", off_surface(A.interest, type_.a, z_)), interest_b, 0, Want::NoOverlap});
+        if (type_.b != SurfaceLabel::Lateral) planned.push_back({1, interest_a, jobs.add(off_surface(B.interest, type_.b, z_b_)), 0, Want::NoOverlap});
     } else if (type_.variant == 'a') {
         planned.push_back({1, interest_a, interest_b, frames_, Want::Frames, problem_.touching_frames_needed()});
     } else if (type_.variant == 'b') {
@@ -123,29 +158,29 @@ void SweepRun::plan_stages() {
     } else {
         // (c) fails when some contact voxel has t_start^A <= t_end^B, i.e. when for some t the
         // voxels A has reached by t meet the voxels B still occupies at or after t.
-        planned.push_back({1, jobs.add([&] { return columns_cumulative(A.interest, z_, true); }),
+        planned.push_back({1, jobs.add_fixed("started by", [&] { return columns_cumulative(A.interest, z_, true); }),
                            jobs.add([&] { return columns_cumulative(B.interest, z_b_, false); }), frames_, Want::NoOverlap});
     }
-    planned.push_back({2, jobs.add([&] { return columns_of(A.fidelity, z_, true); }), jobs.add([&] { return columns_of(B.fidelity, z_b_, true); }),
+    planned.push_back({2, jobs.add_fixed("fidelity", [&] { return columns_of(A.fidelity, z_, true); }), jobs.add([&] { return columns_of(B.fidelity, z_b_, true); }),
                        frames_, Want::NoOverlap});
     if (A.has_clearance())  // multi-party: the other placed objects never meet B's whole body
-        planned.push_back({2, jobs.add([&] { return columns_of(A.clearance, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
+        planned.push_back({2, jobs.add_fixed("clearance", [&] { return columns_of(A.clearance, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
                            frames_, Want::NoOverlap});
     if (problem_.per_frame_visibility()) {
         // Each cone at frame t against the other's body at frame t, on enough frames.
         const int needed = problem_.visibility_frames;
-        planned.push_back({3, jobs.add([&] { return columns_of(A.view_cone, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
+        planned.push_back({3, jobs.add_fixed("cone frames", [&] { return columns_of(A.view_cone, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
                            frames_, Want::Frames, needed});
-        planned.push_back({3, jobs.add([&] { return columns_of(A.whole, z_, true); }), jobs.add([&] { return columns_of(B.view_cone, z_b_, true); }),
+        planned.push_back({3, jobs.add_fixed("whole frames", [&] { return columns_of(A.whole, z_, true); }), jobs.add([&] { return columns_of(B.view_cone, z_b_, true); }),
                            frames_, Want::Frames, needed});
     } else if (problem_.visibility) {
-        planned.push_back({3, jobs.add([&] { return columns_of(A.view_cone, z_); }), jobs.add([&] { return columns_of(B.whole, z_b_, false); }), 0,
+        planned.push_back({3, jobs.add_fixed("cone", [&] { return columns_of(A.view_cone, z_); }), jobs.add([&] { return columns_of(B.whole, z_b_, false); }), 0,
                            Want::Overlap});
-        planned.push_back({3, jobs.add([&] { return columns_of(A.whole, z_, false); }), jobs.add([&] { return columns_of(B.view_cone, z_b_); }), 0,
+        planned.push_back({3, jobs.add_fixed("whole", [&] { return columns_of(A.whole, z_, false); }), jobs.add([&] { return columns_of(B.view_cone, z_b_); }), 0,
                            Want::Overlap});
     }
     std::vector<GpuVolume*> volumes;
-    for (ColumnVolume& columns : jobs.run()) volumes.push_back(add(std::move(columns)));
+    for (GpuVolume* volume : jobs.run([this](ColumnVolume columns) { return add(std::move(columns)); })) volumes.push_back(volume);
     interest_a_ = volumes[interest_a];
     interest_b_ = volumes[interest_b];
     for (const PlannedTest& test : planned)
@@ -160,7 +195,7 @@ void SweepRun::plan_maps() {
     std::vector<int> every_frame(static_cast<std::size_t>(frames_));
     for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
     auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want, int needed = 0) {
-        return MapTest{&fixed, &moving, std::move(slots), want, {}, {}, 0, 0, nullptr, nullptr, {}, needed};
+        return MapTest{&fixed, &moving, std::move(slots), want, nullptr, {}, 0, 0, {}, needed};
     };
     auto map_of = [&](const OverlapTest& test) {
         std::vector<int> slots{0};
@@ -173,14 +208,17 @@ void SweepRun::plan_maps() {
         // whole part) meet, since all its contact voxels lie on them. The surfaces are small, so
         // this necessary test is cheap and leaves few poses for the exact ones.
         const int last = last_, tolerance = problem_.tolerance;
-        auto on_surface = [&](const Amhv& volume, SurfaceLabel label, GpuVolume* whole, const ZFrame& z) -> const ColumnVolume& {
-            if (label == SurfaceLabel::Lateral) return whole->columns;
-            return add(columns_where(volume, z, [&, label](std::size_t v) {
-                       return label == SurfaceLabel::Plus ? volume.t_end(v) >= last - tolerance : volume.t_start(v) <= tolerance;
-                   }))->columns;
+        auto on_surface = [&](const Amhv& volume, SurfaceLabel label, const ZFrame& z) {
+            return columns_where(volume, z, [&, label](std::size_t v) {
+                return label == SurfaceLabel::Plus ? volume.t_end(v) >= last - tolerance : volume.t_start(v) <= tolerance;
+            });
         };
-        required_maps_[1].push_back(map_test(on_surface(problem_.a.interest, type_.a, interest_a_, z_),
-                                             on_surface(problem_.b.interest, type_.b, interest_b_, z_b_), {0}, Want::Overlap));
+        const ColumnVolume& surface_a = type_.a == SurfaceLabel::Lateral
+                                            ? interest_a_->columns
+                                            : shared_fixed("on surface", [&] { return on_surface(problem_.a.interest, type_.a, z_); })->columns;
+        const ColumnVolume& surface_b =
+            type_.b == SurfaceLabel::Lateral ? interest_b_->columns : add(on_surface(problem_.b.interest, type_.b, z_b_))->columns;
+        required_maps_[1].push_back(map_test(surface_a, surface_b, {0}, Want::Overlap));
         for (const OverlapTest& test : stages_[1]) optional_maps_[1].push_back(map_of(test));
     } else if (type_.variant == 'a' || type_.variant == 'b') {
         required_maps_[1].push_back(map_of(stages_[1].front()));
@@ -197,13 +235,34 @@ void SweepRun::plan_maps() {
     for (auto* all : {&required_maps_, &optional_maps_})
         for (auto& stage : *all)
             for (MapTest& test : stage) tests.push_back(&test);
-    // The runs are plain functions of the volumes, cut on all cores; the uploads follow in order.
-    parallel_for(tests.size(), [&](std::size_t k) {
-        tests[k]->runs = fixed_runs(*tests[k]->fixed, tests[k]->slots);
-        tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);
-        tests[k]->z_phase = densest_shared_slice(tests[k]->runs, tests[k]->moving_words);
-    });
+    cut_map_volumes(tests);
     for (MapTest* test : tests) prepare_map(*test);
+}
+
+GpuVolume* SweepRun::shared_fixed(const std::string& name, const std::function<ColumnVolume()>& build) {
+    std::unique_ptr<GpuVolume>& shared = share_.fixed[name];
+    if (!shared) {
+        shared = std::make_unique<GpuVolume>();
+        shared->columns = build();
+        ++tools_.stats.fixed_volumes_built;
+    }
+    return shared.get();
+}
+
+void SweepRun::cut_map_volumes(const std::vector<MapTest*>& tests) {
+    // The runs are plain functions of the volumes, cut on all cores: A's once for every height.
+    std::vector<MapTest*> first_cuts;
+    for (MapTest* test : tests) {
+        if (!share_.holds(test->fixed)) fail("sweep", "internal: a map's fixed volume is not A's shared one");
+        std::unique_ptr<FixedSide>& side = share_.fixed_sides[{test->fixed, test->slots}];
+        if (!side) side = std::make_unique<FixedSide>(), first_cuts.push_back(test);
+        test->fixed_side = side.get();
+    }
+    parallel_for(first_cuts.size(), [&](std::size_t k) { first_cuts[k]->fixed_side->runs = fixed_runs(*first_cuts[k]->fixed, first_cuts[k]->slots); });
+    parallel_for(tests.size(), [&](std::size_t k) {
+        tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);
+        tests[k]->z_phase = densest_shared_slice(tests[k]->runs(), tests[k]->moving_words);
+    });
 }
 
 void SweepRun::prepare_map(MapTest& test) {
@@ -212,19 +271,21 @@ void SweepRun::prepare_map(MapTest& test) {
         fail("key segment", "a volume {} x {} columns wide is more than the sweep handles (65,535); use a larger voxel", test.fixed->nx,
              test.fixed->ny);
     // The map kernel reads the fixed runs as texels, one a run.
-    if (test.runs.runs.size() > tools_.context.selected().max_texel_buffer_elements)
+    if (test.runs().runs.size() > tools_.context.selected().max_texel_buffer_elements)
         fail("key segment", "{} slice runs are more than the device's texel buffers hold ({} texels, one a run); use a larger voxel",
-             test.runs.runs.size(), tools_.context.selected().max_texel_buffer_elements);
+             test.runs().runs.size(), tools_.context.selected().max_texel_buffer_elements);
     // Pulled runs are cut to word_clips, which start here or later for every angle and row (a word's
     // runs lie in the volume's occupied columns).
     test.pulled_x0 = std::int32_t(test.fixed->x0) + test.fixed->x_first - range_.i_last;
+    if (test.fixed_side->packed) return;  // uploaded by an earlier height's run
     std::vector<std::array<std::uint32_t, 2>> packed;
-    packed.reserve(test.runs.runs.size());
-    for (const SliceRun& run : test.runs.runs)
+    packed.reserve(test.runs().runs.size());
+    for (const SliceRun& run : test.runs().runs)
         packed.push_back({std::uint32_t(run.y - test.fixed->y0),
                           std::uint32_t(run.x_first - test.fixed->x0) | std::uint32_t(run.x_last - test.fixed->x0) << 16});
-    test.fixed_runs = upload_for_kernels(tools_.context, packed.data(), packed.size() * 8);
-    test.fixed_keys = upload_for_kernels(tools_.context, test.runs.by_key.data(), test.runs.by_key.size() * 8);
+    FixedSide& side = *test.fixed_side;
+    side.packed = upload_for_kernels(tools_.context, packed.data(), packed.size() * 8);
+    side.keys = upload_for_kernels(tools_.context, side.runs.by_key.data(), side.runs.by_key.size() * 8);
 }
 
 void SweepRun::upload_angle_tables() {

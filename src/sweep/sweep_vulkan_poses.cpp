@@ -42,9 +42,15 @@ const std::vector<OverlapTest>& SweepRun::block_stage(int stage) {
     if (blocks_made_[std::size_t(stage)]) return tests;
     blocks_made_[std::size_t(stage)] = true;
     for (OverlapTest test : stages_[std::size_t(stage)]) {
-        auto [it, added] = pooled_.emplace(test.fixed, nullptr);
-        if (added) it->second = add(dilated_columns(test.fixed->columns, block_));
-        GpuVolume* volume = it->second;
+        // A's volumes pooled once for every height (HeightShare).
+        if (!share_.holds(&test.fixed->columns)) fail("sweep", "internal: a test's fixed volume is not A's shared one");
+        std::unique_ptr<GpuVolume>& pooled = share_.block_pooled[test.fixed];
+        if (!pooled) {
+            pooled = std::make_unique<GpuVolume>();
+            pooled->columns = dilated_columns(test.fixed->columns, block_);
+            ++tools_.stats.fixed_volumes_built;
+        }
+        GpuVolume* volume = pooled.get();
         if (test.want == Want::Frames && !volume->frame_boxes) {
             const auto& boxes = volume->columns.slot_boxes;
             volume->frame_boxes = upload_for_kernels(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);

@@ -15,6 +15,8 @@
 #include <map>
 #include <memory>
 #include <span>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "src/gpu/compute.hpp"
@@ -109,6 +111,14 @@ struct AngleScratch {
     void runs_of_pass(int pass, int passes, std::vector<std::span<const SliceRun>>& spans) const;
 };
 
+// A fixed volume's slice runs for some slots, and their uploads: the map kernel reads them as
+// texels, (y, x_first | x_last << 16) relative to the volume's origin, and each key's first run
+// and count.
+struct FixedSide {
+    FixedRuns runs;
+    std::unique_ptr<Buffer> packed, keys;
+};
+
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
 // of the fixed volume pairs with slot s of the moving one: slot 0 for unions, 1..frames for frames.
 struct MapTest {
@@ -116,14 +126,29 @@ struct MapTest {
     const ColumnVolume* moving;
     std::vector<int> slots;
     Want want;  // Overlap: in some slot pair; NoOverlap: in none; Frames: in at least `needed`
-    FixedRuns runs;
+    FixedSide* fixed_side = nullptr;  // the fixed volume's runs for `slots` (HeightShare)
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
     int z_phase = 0;             // MapPasses::z_phase of its pulled runs (densest_shared_slice)
-    std::unique_ptr<Buffer> fixed_runs, fixed_keys;
     std::vector<AngleScratch> angles;  // per angle of the batch: its pulled runs (SweepRun::cut_angles)
     int needed = 0;
     int maps_per_angle() const { return want == Want::Frames ? int(slots.size()) : 1; }
+    const FixedRuns& runs() const { return fixed_side->runs; }
+};
+
+// What every height of a sweep shares: A's side, which never moves (only B is raised), built by
+// the first height's run in a z frame that covers every height. Its column volumes by what they
+// hold (with their uploads), their copies OR-pooled for the block pre-test, and the slice runs
+// of each volume and set of slots that overlap maps read.
+struct HeightShare {
+    std::map<std::string, std::unique_ptr<GpuVolume>> fixed;
+    std::map<const GpuVolume*, std::unique_ptr<GpuVolume>> block_pooled;
+    std::map<std::pair<const ColumnVolume*, std::vector<int>>, std::unique_ptr<FixedSide>> fixed_sides;
+    // Whether `columns` are one of the shared volumes' (the caches above are keyed by address, so
+    // a run's own volume must never be a key: a later run's could take its address).
+    bool holds(const ColumnVolume* columns) const {
+        return std::any_of(fixed.begin(), fixed.end(), [&](const auto& entry) { return &entry.second->columns == columns; });
+    }
 };
 
 // Work blocks of one pose test: columns x rows of the fixed volume per invocation, and for
@@ -194,14 +219,20 @@ struct SweepTools {
 
 class SweepRun {
 public:
-    // The poses of one height: B raised by `level` voxels.
-    SweepRun(const SweepProblem& problem, SweepTools tools, int level);
+    // The poses of one height: B raised by `level` voxels; A's side comes from `share` (and goes
+    // there when it is not yet).
+    SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level);
     // The outcomes of that height (a result whose range is that one level).
     SweepResult run();
 
 private:
     // ---- plan (sweep_vulkan_plan.cpp) ----
     GpuVolume* add(ColumnVolume columns);
+    // A's volume `name` from the share, built by `build` where it is not there yet.
+    GpuVolume* shared_fixed(const std::string& name, const std::function<ColumnVolume()>& build);
+    // Each map test's fixed runs from the share (cut on all cores where not there yet), and the
+    // moving volume's words.
+    void cut_map_volumes(const std::vector<MapTest*>& tests);
     // The pose tests of each stage: contact, dictionary, fidelity, visibility.
     void plan_stages();
     // The overlap maps that replace (required) or may replace (optional) each stage's pose tests.
@@ -277,6 +308,7 @@ private:
 
     const SweepProblem& problem_;
     SweepTools tools_;
+    HeightShare& share_;
     const int frames_, last_;
     const InteractionType type_;
     const PoseRange range_;  // the problem's, cut to the one level
@@ -293,7 +325,6 @@ private:
     std::vector<std::vector<MapTest>> required_maps_{4}, optional_maps_{4};
     std::vector<std::vector<OverlapTest>> block_stages_{4};
     std::array<bool, 4> blocks_made_{};
-    std::map<const GpuVolume*, GpuVolume*> pooled_;
 
     int angles_per_batch_ = 1, row_words_ = 0;
     std::array<double, 4> pose_iterations_{};  // per stage: pose_test_iterations of its tests, summed
