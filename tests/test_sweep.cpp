@@ -403,7 +403,7 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
 // Every height of a z range shares A's side (HeightShare): A's volumes are built once, in a z frame
 // that covers every height, by maps and pose by pose; each height's outcomes are those of a sweep
 // of that height alone (its own, narrower frame) and the reference's.
-TEST(Sweep, HeightsShareAsSide) {
+TEST(Sweep, HeightsShareTheFixedSide) {
     std::mt19937 random(1);
     const double h = 0.03;
     const int frames = 9;

@@ -259,7 +259,8 @@ bool SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
     }
     scratch.rows_through = row_passes[1];
     if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs().runs.empty()) return false;
-    const WordClips clips = word_clips(test.runs(), range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
+    const WordClips clips =
+        word_clips(test.runs(), range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
     const RunsInPlay in_play(pruner, test.runs(), rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     std::vector<std::size_t> pass_first;
@@ -418,7 +419,8 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
         const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
-        set.emplace(tools_.map.bind({test.fixed_side->packed.get(), test.fixed_side->keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
+        set.emplace(tools_.map.bind(
+            {test.fixed_side->packed.get(), test.fixed_side->keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
         // The words the maps' texel view covers (Kernel::bind cuts it to the device's limit).
         const std::uint32_t texel_words = std::uint32_t(std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements));
         const MapParams params{0, 0, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),

@@ -161,23 +161,23 @@ void SweepRun::plan_stages() {
         planned.push_back({1, jobs.add_fixed("started by", [&] { return columns_cumulative(A.interest, z_, true); }),
                            jobs.add([&] { return columns_cumulative(B.interest, z_b_, false); }), frames_, Want::NoOverlap});
     }
-    planned.push_back({2, jobs.add_fixed("fidelity", [&] { return columns_of(A.fidelity, z_, true); }), jobs.add([&] { return columns_of(B.fidelity, z_b_, true); }),
-                       frames_, Want::NoOverlap});
+    planned.push_back({2, jobs.add_fixed("fidelity", [&] { return columns_of(A.fidelity, z_, true); }),
+                       jobs.add([&] { return columns_of(B.fidelity, z_b_, true); }), frames_, Want::NoOverlap});
     if (A.has_clearance())  // multi-party: the other placed objects never meet B's whole body
-        planned.push_back({2, jobs.add_fixed("clearance", [&] { return columns_of(A.clearance, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
-                           frames_, Want::NoOverlap});
+        planned.push_back({2, jobs.add_fixed("clearance", [&] { return columns_of(A.clearance, z_, true); }),
+                           jobs.add([&] { return columns_of(B.whole, z_b_, true); }), frames_, Want::NoOverlap});
     if (problem_.per_frame_visibility()) {
         // Each cone at frame t against the other's body at frame t, on enough frames.
         const int needed = problem_.visibility_frames;
-        planned.push_back({3, jobs.add_fixed("cone frames", [&] { return columns_of(A.view_cone, z_, true); }), jobs.add([&] { return columns_of(B.whole, z_b_, true); }),
-                           frames_, Want::Frames, needed});
-        planned.push_back({3, jobs.add_fixed("whole frames", [&] { return columns_of(A.whole, z_, true); }), jobs.add([&] { return columns_of(B.view_cone, z_b_, true); }),
-                           frames_, Want::Frames, needed});
+        planned.push_back({3, jobs.add_fixed("cone frames", [&] { return columns_of(A.view_cone, z_, true); }),
+                           jobs.add([&] { return columns_of(B.whole, z_b_, true); }), frames_, Want::Frames, needed});
+        planned.push_back({3, jobs.add_fixed("whole frames", [&] { return columns_of(A.whole, z_, true); }),
+                           jobs.add([&] { return columns_of(B.view_cone, z_b_, true); }), frames_, Want::Frames, needed});
     } else if (problem_.visibility) {
-        planned.push_back({3, jobs.add_fixed("cone", [&] { return columns_of(A.view_cone, z_); }), jobs.add([&] { return columns_of(B.whole, z_b_, false); }), 0,
-                           Want::Overlap});
-        planned.push_back({3, jobs.add_fixed("whole", [&] { return columns_of(A.whole, z_, false); }), jobs.add([&] { return columns_of(B.view_cone, z_b_); }), 0,
-                           Want::Overlap});
+        planned.push_back({3, jobs.add_fixed("cone", [&] { return columns_of(A.view_cone, z_); }),
+                           jobs.add([&] { return columns_of(B.whole, z_b_, false); }), 0, Want::Overlap});
+        planned.push_back({3, jobs.add_fixed("whole", [&] { return columns_of(A.whole, z_, false); }),
+                           jobs.add([&] { return columns_of(B.view_cone, z_b_); }), 0, Want::Overlap});
     }
     std::vector<GpuVolume*> volumes;
     for (GpuVolume* volume : jobs.run([this](ColumnVolume columns) { return add(std::move(columns)); })) volumes.push_back(volume);
