@@ -46,12 +46,7 @@ public:
                 continue;
             }
             std::unique_ptr<GpuVolume>& shared = share_.fixed[jobs_[k].fixed_name];
-            if (!shared) {
-                shared = std::make_unique<GpuVolume>();
-                shared->columns = std::move(built[k]);
-                ++fixed_built_;
-            }
-            volumes.push_back(shared.get());
+            volumes.push_back(shared ? shared.get() : HeightShare::keep(shared, std::move(built[k]), fixed_built_));
         }
         return volumes;
     }
@@ -241,12 +236,7 @@ void SweepRun::plan_maps() {
 
 GpuVolume* SweepRun::shared_fixed(const std::string& name, const std::function<ColumnVolume()>& build) {
     std::unique_ptr<GpuVolume>& shared = share_.fixed[name];
-    if (!shared) {
-        shared = std::make_unique<GpuVolume>();
-        shared->columns = build();
-        ++tools_.stats.fixed_volumes_built;
-    }
-    return shared.get();
+    return shared ? shared.get() : HeightShare::keep(shared, build(), tools_.stats.fixed_volumes_built);
 }
 
 void SweepRun::cut_map_volumes(const std::vector<MapTest*>& tests) {

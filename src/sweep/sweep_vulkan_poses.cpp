@@ -45,12 +45,8 @@ const std::vector<OverlapTest>& SweepRun::block_stage(int stage) {
         // A's volumes pooled once for every height (HeightShare).
         if (!share_.holds(&test.fixed->columns)) fail("sweep", "internal: a test's fixed volume is not A's shared one");
         std::unique_ptr<GpuVolume>& pooled = share_.block_pooled[test.fixed];
-        if (!pooled) {
-            pooled = std::make_unique<GpuVolume>();
-            pooled->columns = dilated_columns(test.fixed->columns, block_);
-            ++tools_.stats.fixed_volumes_built;
-        }
-        GpuVolume* volume = pooled.get();
+        GpuVolume* volume =
+            pooled ? pooled.get() : HeightShare::keep(pooled, dilated_columns(test.fixed->columns, block_), tools_.stats.fixed_volumes_built);
         if (test.want == Want::Frames && !volume->frame_boxes) {
             const auto& boxes = volume->columns.slot_boxes;
             volume->frame_boxes = upload_for_kernels(tools_.context, boxes.data() + 1, (boxes.size() - 1) * 16);

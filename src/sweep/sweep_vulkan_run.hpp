@@ -149,6 +149,13 @@ struct HeightShare {
     bool holds(const ColumnVolume* columns) const {
         return std::any_of(fixed.begin(), fixed.end(), [&](const auto& entry) { return &entry.second->columns == columns; });
     }
+    // Fills an empty entry of `fixed` or `block_pooled` with `columns`, counting it in `built`.
+    static GpuVolume* keep(std::unique_ptr<GpuVolume>& entry, ColumnVolume columns, std::uint64_t& built) {
+        entry = std::make_unique<GpuVolume>();
+        entry->columns = std::move(columns);
+        ++built;
+        return entry.get();
+    }
 };
 
 // Work blocks of one pose test: columns x rows of the fixed volume per invocation, and for
