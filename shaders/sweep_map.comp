@@ -9,15 +9,18 @@
 // each pulled run only the rows that can reach one, and drops runs that reach none: the map is
 // then exact on those poses, the only ones read.
 //
-// One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). The host
-// sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays under
-// lavapipe's per-invocation loop cap.
+// One invocation handles one work item = (height, pulled run, chunk of the fixed runs at its key).
+// With several heights of B in one sweep run, B's runs come at its lowest height: raised by h more,
+// a run at slice z meets the fixed runs at z + h and sets the map of its angle at that height. The
+// host sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays
+// under lavapipe's per-invocation loop cap.
 layout(local_size_x_id = 0) in;
 
-// Pulled runs: y (global), x_first | x_last << 16 relative to pulled_x0, key, and the rows j the
-// run is paired on (first | last << 16), cut by the host to where poses are still in play.
+// Pulled runs: y relative to fixed_y0 (16 bits, signed) | the heights it is paired at << 16,
+// x_first | x_last << 16 relative to pulled_x0, key, and the rows j the run is paired on (first |
+// last << 16), cut by the host to where poses are still in play.
 struct Run {
-    int y;
+    uint y_heights;
     uint x;
     int key;
     uint rows;
@@ -28,7 +31,7 @@ struct Run {
 layout(set = 0, binding = 0) uniform usamplerBuffer fixed_runs;
 layout(std430, set = 0, binding = 1) readonly buffer FixedKeys { ivec2 fixed_keys[]; };  // per key: first run, count
 layout(std430, set = 0, binding = 2) readonly buffer PulledRuns { Run pulled_runs[]; };
-// [angle in batch][map][row j][word]: bit i of a row is offset range_i0 + i.
+// [angle in batch][height][map][row j][word]: bit i of a row is offset range_i0 + i.
 layout(std430, set = 0, binding = 3) buffer Maps { uint maps[]; };
 // The same maps read through the sampler path, which lavapipe gathers for all lanes at once (a
 // storage load runs lane by lane): a stale word only costs an atomic that sets nothing new.
@@ -37,6 +40,8 @@ layout(set = 0, binding = 4) uniform usamplerBuffer map_texels;
 layout(push_constant) uniform Params {
     uint item_base;
     uint item_count;
+    uint run_count;  // pulled runs: the items are (height, run, chunk), height first
+    int heights;
     int chunks, runs_per_chunk;
     int zbits, slot_count;
     int range_i0, range_j0, range_ni, range_nj, row_words;
@@ -53,14 +58,21 @@ uint seen(uint w) { return w < params.texel_words ? texelFetch(map_texels, int(w
 void main() {
     uint item = params.item_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.item_count) return;
-    Run b = pulled_runs[item / uint(params.chunks)];
-    int chunk = int(item % uint(params.chunks));
-    int z = b.key % params.zbits;
+    // Height first: neighbouring items pair neighbouring runs (sorted by key) at one height, so they
+    // walk the same fixed runs.
+    uint per_height = params.run_count * uint(params.chunks);
+    int h = int(item / per_height);
+    uint rest = item % per_height;
+    Run b = pulled_runs[rest / uint(params.chunks)];
+    int chunk = int(rest % uint(params.chunks));
+    int z = b.key % params.zbits + h;
+    if (z >= params.zbits || ((b.y_heights >> (16 + h)) & 1u) == 0u) return;
+    int b_y = int(b.y_heights << 16) >> 16;  // relative to fixed_y0
     int angle_slot = b.key / params.zbits;
     int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;
     ivec2 key = fixed_keys[slot * params.zbits + z];
     int b_x_first = int(b.x & 0xffffu) + params.pulled_x0, b_x_last = int(b.x >> 16u) + params.pulled_x0;
-    int y_first = b.y + params.range_j0 + int(b.rows & 0xffffu) - params.fixed_y0, y_last = b.y + params.range_j0 + int(b.rows >> 16u) - params.fixed_y0;
+    int y_first = b_y + params.range_j0 + int(b.rows & 0xffffu), y_last = b_y + params.range_j0 + int(b.rows >> 16u);
     // A key's fixed runs are sorted by y: start at the first one on row y_first or later.
     int lo = key.x, hi = key.x + key.y;
     while (lo < hi) {
@@ -70,13 +82,14 @@ void main() {
     }
     int first = lo + chunk * params.runs_per_chunk;
     int last = min(key.x + key.y, first + params.runs_per_chunk);
-    int map = params.map_per_slot != 0 ? angle * params.slot_count + slot : angle;
+    int view = angle * params.heights + h;
+    int map = params.map_per_slot != 0 ? view * params.slot_count + slot : view;
     uint map_base = uint(map) * uint(params.range_nj) * uint(params.row_words);
     for (int r = first; r < last; ++r) {
         uvec2 a = texelFetch(fixed_runs, r).xy;
         int a_y = int(a.x);
         if (a_y > y_last) break;
-        int j = a_y + params.fixed_y0 - b.y - params.range_j0;
+        int j = a_y - b_y - params.range_j0;
         int a_x_first = int(a.y & 0xffffu) + params.fixed_x0, a_x_last = int(a.y >> 16u) + params.fixed_x0;
         int lo = max(a_x_first - b_x_last - params.range_i0, 0);
         int hi = min(a_x_last - b_x_first - params.range_i0, params.range_ni - 1);

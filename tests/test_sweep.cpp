@@ -2,7 +2,9 @@
 // pose), and both against solution sets known in closed form.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
+#include <numeric>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -401,8 +403,9 @@ TEST(Sweep, RealCaptureKeysMatchReference) {
 }
 
 // Every height of a z range shares A's side (HeightShare): A's volumes are built once, in a z frame
-// that covers every height, by maps and pose by pose; each height's outcomes are those of a sweep
-// of that height alone (its own, narrower frame) and the reference's.
+// that covers every height, by maps and pose by pose, with the heights in one run, in runs of 4 and
+// 2, and one by one; each height's outcomes are those of a sweep of that height alone (its own,
+// narrower frame) and the reference's. Heights in one run cut and prune B's runs once for all.
 TEST(Sweep, HeightsShareTheFixedSide) {
     std::mt19937 random(1);
     const double h = 0.03;
@@ -419,10 +422,14 @@ TEST(Sweep, HeightsShareTheFixedSide) {
     expect_identical(both);
     EXPECT_GT(both.gpu.solutions, 0u);
     EXPECT_GT(both.gpu.rejected[3], 0u);
-    for (const auto& options : {gpu::SweeperOptions{.pose_test_pairs = 1e12}, gpu::SweeperOptions{.block = 3, .maps = false}}) {
+    std::map<int, std::uint64_t> pulled_runs;  // per heights_per_run
+    for (const auto& options : {gpu::SweeperOptions{.pose_test_pairs = 1e12}, gpu::SweeperOptions{.pose_test_pairs = 1e12, .heights_per_run = 4},
+                                gpu::SweeperOptions{.pose_test_pairs = 1e12, .heights_per_run = 1}, gpu::SweeperOptions{.block = 3, .maps = false}}) {
         gpu::VulkanSweeper sweeper(test::context(), options);
-        EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "maps " << options.maps;
+        EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "maps " << options.maps << " heights " << options.heights_per_run;
         const std::uint64_t built = sweeper.last_stats().fixed_volumes_built;
+        const auto& runs = sweeper.last_stats().pulled_runs_per_stage;
+        if (options.maps) pulled_runs[options.heights_per_run] = std::accumulate(runs.begin(), runs.end(), std::uint64_t(0));
         SweepProblem one = problem;
         std::uint64_t most_for_one = 0;
         for (int level = problem.range.z_first; level <= problem.range.z_last; ++level) {
@@ -437,6 +444,8 @@ TEST(Sweep, HeightsShareTheFixedSide) {
         EXPECT_EQ(built, most_for_one) << "A's volumes built once for the six heights, as for one";
         test::expect_no_validation_messages();
     }
+    EXPECT_LT(pulled_runs[16], pulled_runs[4]);
+    EXPECT_LT(pulled_runs[4], pulled_runs[1]);
 }
 
 // A solid block of poses is stored as tiles (a few bytes) and reads back pose for pose.
@@ -804,6 +813,43 @@ TEST(Sweep, DilatedColumnsAreTheOrOverTheBlock) {
                         }
                     ASSERT_EQ(d.column(x, y)[w], expected) << block << " " << x << " " << y << " " << w;
                 }
+    }
+}
+
+// A's volume lowered over a run's heights: bit z of every slot is the OR of bits z .. z + lifts - 1,
+// across word boundaries and for lifts past a word (slot 0, the union, holds every frame's bits).
+TEST(Sweep, LoweredUnionIsTheOrOverTheLifts) {
+    std::mt19937 random(11);
+    ColumnVolume volume = blank_columns(3, -4, 9, 7, 3, 3);
+    for (int y = 0; y < volume.ny; ++y)
+        for (int x = 0; x < volume.nx; ++x) {
+            if (random() % 3 == 0) continue;
+            std::uint32_t* column = volume.column(x, y);
+            for (int w = 0; w < volume.zwords; ++w) {
+                for (int slot = 1; slot < volume.slots; ++slot) {
+                    const std::uint32_t bits = std::uint32_t(random()) & std::uint32_t(random()) & std::uint32_t(random());
+                    column[std::size_t(slot) * std::size_t(volume.zwords) + std::size_t(w)] = bits;
+                }
+                column[w] = column[std::size_t(volume.zwords) + std::size_t(w)] | column[2 * std::size_t(volume.zwords) + std::size_t(w)];
+            }
+        }
+    volume.finish();
+    const auto bit = [](const ColumnVolume& v, int x, int y, int slot, int z) {
+        return z < 32 * v.zwords && ((v.column(x, y)[std::size_t(slot) * std::size_t(v.zwords) + std::size_t(z / 32)] >> (z % 32)) & 1u) != 0;
+    };
+    for (int lifts : {1, 2, 3, 11, 16, 33, 40}) {
+        const ColumnVolume lowered = lowered_union(volume, lifts);
+        ASSERT_EQ(lowered.nx, volume.nx);
+        ASSERT_EQ(lowered.zwords, volume.zwords);
+        for (int y = 0; y < volume.ny; ++y)
+            for (int x = 0; x < volume.nx; ++x)
+                for (int slot = 0; slot < volume.slots; ++slot)
+                    for (int z = 0; z < 32 * volume.zwords; ++z) {
+                        bool expected = false;
+                        for (int h = 0; h < lifts; ++h) expected = expected || bit(volume, x, y, slot, z + h);
+                        ASSERT_EQ(bit(lowered, x, y, slot, z), expected) << lifts << " " << x << " " << y << " " << slot << " " << z;
+                    }
+        EXPECT_EQ(lowered.word_last, volume.word_last);
     }
 }
 

@@ -205,6 +205,45 @@ ColumnVolume dilated_columns(const ColumnVolume& volume, int block) {
     return d;
 }
 
+namespace {
+
+// One slot's words (n of them) ORed with themselves moved down by 1 .. lifts - 1 bits (bit z + h
+// to bit z), doubling the lifts covered per step; `scratch` holds n words.
+void lower_union_words(std::uint32_t* words, int n, int lifts, std::uint32_t* scratch) {
+    for (int covered = 1; covered < lifts;) {
+        const int step = std::min(covered, lifts - covered);
+        const int word_shift = step / 32, bit_shift = step % 32;
+        for (int w = 0; w < n; ++w) {
+            const int source = w + word_shift;
+            std::uint32_t bits = source < n ? words[source] >> bit_shift : 0u;
+            if (bit_shift != 0 && source + 1 < n) bits |= words[source + 1] << (32 - bit_shift);
+            scratch[w] = bits;
+        }
+        for (int w = 0; w < n; ++w) words[w] |= scratch[w];
+        covered += step;
+    }
+}
+
+}  // namespace
+
+ColumnVolume lowered_union(const ColumnVolume& volume, int lifts) {
+    if (lifts < 1) fail("sweep", "internal: a union over {} lifts", lifts);
+    ColumnVolume pooled = volume;
+    if (lifts == 1) return pooled;
+    const int n = pooled.zwords;
+    std::vector<std::uint32_t> scratch(std::size_t(std::max(n, 1)));
+    // A column whose union slot is empty holds nothing in any slot.
+    for (int y = 0; y < pooled.ny; ++y) {
+        const auto& row = pooled.rows[std::size_t(y)];
+        for (int x = row[0]; x <= row[1]; ++x) {
+            std::uint32_t* column = pooled.column(x, y);
+            for (int slot = 0; slot < pooled.slots; ++slot) lower_union_words(column + std::size_t(slot) * std::size_t(n), n, lifts, scratch.data());
+        }
+    }
+    pooled.finish(true);
+    return pooled;
+}
+
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,
                                           const std::array<std::int64_t, 2>& root_a, const std::array<std::int64_t, 2>& root_b) {
     return mapped_bounds(moving, {moving.x_first, moving.y_first, moving.x_last, moving.y_last}, trig, root_a, root_b);

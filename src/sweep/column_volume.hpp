@@ -72,6 +72,12 @@ ColumnVolume columns_cumulative(const Amhv& volume, const ZFrame& z, bool starte
 // whole block (exact culling; see sweep_vulkan.cpp).
 ColumnVolume dilated_columns(const ColumnVolume& volume, int block);
 
+// The volume's bits ORed over lifts 0 .. lifts - 1 downwards: bit z is set where bit z + h is for
+// some h < lifts, every slot. A run of B raised by h meets `volume` at slice z + h; its runs at
+// slice z meet this volume at z exactly when they meet `volume` at some lift, so one prune of B's
+// runs serves every lift (SweepRun with several heights).
+ColumnVolume lowered_union(const ColumnVolume& volume, int lifts);
+
 // Conservative bounding box [x_first, y_first, x_last, y_last] (global A lattice) of the A columns
 // that the pull mapping of angle `trig` (pose offset 0) sends into an occupied column of `moving`.
 std::array<std::int32_t, 4> mapped_bounds(const ColumnVolume& moving, const posemap::Trig& trig,

@@ -30,14 +30,17 @@ VulkanSweeper::VulkanSweeper(Context& context, SweeperOptions options, std::vect
 
 std::string VulkanSweeper::name() const { return "vulkan:" + context_.selected().name; }
 
-// One SweepRun per height of B (z_range), each over every angle; their outcomes follow each other.
+// One SweepRun per group of heights of B (z_range), each over every angle; their outcomes follow
+// each other.
 SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     validate(problem);
     stats_ = {};
     const PoseRange& r = problem.range;
-    if (r.depth() == 1) {  // one height: the run's outcomes are the result (no second copy)
+    const int group = SweepRun::heights_in_one(options_) ? std::min({r.depth(), options_.heights_per_run, SweepRun::kMaxHeights}) : 1;
+    if (group == r.depth()) {  // one run: its outcomes are the result (no second copy)
         HeightShare share;
-        SweepResult result = SweepRun(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress}, share, r.z_first).run();
+        SweepResult result =
+            SweepRun(problem, SweepTools{context_, options_, overlap_, map_, stats_, progress}, share, r.z_first, group).run();
         result.range = r;
         return result;
     }
@@ -45,13 +48,14 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     result.range = r;
     result.outcomes.resize(r.size());  // FailsContact (zero), on pages untouched until written
     HeightShare share;
-    for (int level = r.z_first; level <= r.z_last; ++level) {
+    for (int level = r.z_first; level <= r.z_last; level += group) {
+        const int heights = std::min(group, r.z_last - level + 1);
         const int swept = problem.angle_end() - problem.first_angle, done_before = (level - r.z_first) * swept;
-        std::function<void(int, int)> level_progress;
-        if (progress) level_progress = [&](int done, int) { progress(done_before + done, swept * r.depth()); };
-        SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, level_progress}, share, level);
-        const SweepResult level_result = run.run();
-        std::copy(level_result.outcomes.begin(), level_result.outcomes.end(),
+        std::function<void(int, int)> run_progress;
+        if (progress) run_progress = [&](int done, int) { progress(done_before + done * heights, swept * r.depth()); };
+        SweepRun run(problem, SweepTools{context_, options_, overlap_, map_, stats_, run_progress}, share, level, heights);
+        const SweepResult run_result = run.run();
+        std::copy(run_result.outcomes.begin(), run_result.outcomes.end(),
                   result.outcomes.begin() + std::ptrdiff_t(std::size_t(level - r.z_first) * r.per_level()));
     }
     result.count();
@@ -63,7 +67,7 @@ namespace sweep_detail {
 SweepResult SweepRun::run() {
     result_.range = range_;
     static_assert(PoseOutcome::FailsContact == PoseOutcome{}, "outcomes start as zero pages");
-    result_.outcomes.resize(range_.per_level());  // FailsContact, on pages untouched until written
+    result_.outcomes.resize(range_.size());  // FailsContact, on pages untouched until written
     if (range_.size() == 0) {
         result_.count();
         return result_;
@@ -94,7 +98,7 @@ void SweepRun::lap(int stage) {
 // One batch of angles through every stage; each stage's wall time, host work included, goes to
 // its entry of SweepStats::seconds_per_stage.
 void SweepRun::sweep_batch(int angle_first, int batch_angles) {
-    tools_.stats.poses_per_stage[0] += per_angle_ * std::uint64_t(batch_angles);
+    tools_.stats.poses_per_stage[0] += per_angle_ * std::uint64_t(views(batch_angles));
     clock_ = std::chrono::steady_clock::now();
     std::vector<Pose> survivors =
         tools_.options.maps ? contact_and_dictionary_by_maps(angle_first, batch_angles) : contact_pose_by_pose(angle_first, batch_angles);
@@ -104,27 +108,30 @@ void SweepRun::sweep_batch(int angle_first, int batch_angles) {
         if (!(tools_.options.maps && stage == 1 && type_.lateral_pair())) survivors = later_stage(stage, std::move(survivors), angle_first, batch_angles);
         lap(stage);
     }
-    const std::vector<std::size_t> starts = angle_starts(survivors, angle_first, batch_angles);
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        for (std::size_t p = starts[a]; p < starts[a + 1]; ++p) result_.outcomes[outcome_index(survivors[p])] = PoseOutcome::Solution;
+    const std::vector<std::size_t> starts = view_starts(survivors, angle_first, batch_angles);
+    parallel_for(std::size_t(views(batch_angles)), [&](std::size_t v) {
+        for (std::size_t p = starts[v]; p < starts[v + 1]; ++p) result_.outcomes[outcome_index(survivors[p])] = PoseOutcome::Solution;
     });
 }
 
-// Where each angle's poses start in `poses` (sorted by angle, as every stage keeps them), and the
-// end: per-angle work on them runs on all cores, each angle writing only its own poses' entries.
-std::vector<std::size_t> SweepRun::angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const {
+// Where each view's poses start in `poses` (sorted by view, as every stage keeps them), and the
+// end: per-view work on them runs on all cores, each view writing only its own poses' entries.
+std::vector<std::size_t> SweepRun::view_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const {
+    const int count = views(batch_angles);
+    const auto view_of = [&](const Pose& q) { return (q[0] - angle_first) * heights_ + q[3]; };
     // By binary search: a walk over every pose was, on a 16-core host, serial time in every stage.
-    std::vector<std::size_t> starts(std::size_t(batch_angles) + 1, poses.size());
-    for (int a = 0; a < batch_angles; ++a)
-        starts[std::size_t(a)] = std::size_t(std::partition_point(poses.begin(), poses.end(), [&](const Pose& q) { return q[0] < angle_first + a; }) -
+    std::vector<std::size_t> starts(std::size_t(count) + 1, poses.size());
+    for (int v = 0; v < count; ++v)
+        starts[std::size_t(v)] = std::size_t(std::partition_point(poses.begin(), poses.end(), [&](const Pose& q) { return view_of(q) < v; }) -
                                              poses.begin());
-    // Each angle's stretch must begin and end with that angle (and the batch's poses lie in it).
-    bool in_order = poses.empty() || (poses.front()[0] >= angle_first && poses.back()[0] < angle_first + batch_angles);
-    for (int a = 0; a < batch_angles && in_order; ++a) {
-        const std::size_t first = starts[std::size_t(a)], end = starts[std::size_t(a) + 1];
-        in_order = first == end || (poses[first][0] == angle_first + a && poses[end - 1][0] == angle_first + a);
+    // Each view's stretch must begin and end with that view (and the batch's poses lie in it).
+    const auto in_batch = [&](const Pose& q) { return q[0] >= angle_first && q[3] >= 0 && q[3] < heights_ && view_of(q) < count; };
+    bool in_order = poses.empty() || (in_batch(poses.front()) && in_batch(poses.back()));
+    for (int v = 0; v < count && in_order; ++v) {
+        const std::size_t first = starts[std::size_t(v)], end = starts[std::size_t(v) + 1];
+        in_order = first == end || (view_of(poses[first]) == v && view_of(poses[end - 1]) == v);
     }
-    if (!in_order) fail("sweep", "internal: a batch's poses are not in angle order");
+    if (!in_order) fail("sweep", "internal: a batch's poses are not in view order");
     return starts;
 }
 
@@ -138,45 +145,48 @@ Band SweepRun::box_of_flags(const std::uint8_t* flags) const {
 // Contact by its map on every pose of the batch, then the required dictionary maps on the poses
 // in contact. Returns the poses that pass both; the rest get their outcome.
 std::vector<Pose> SweepRun::contact_and_dictionary_by_maps(int angle_first, int batch_angles) {
-    const Rows all_rows(std::size_t(batch_angles), {0, height_ - 1, 0, width_ - 1});
+    const std::size_t view_count = std::size_t(views(batch_angles));
+    const Rows all_rows(view_count, {0, height_ - 1, 0, width_ - 1});
     const auto contact = run_map(required_maps_[0].front(), 0, angle_first, batch_angles, all_rows, nullptr);
     lap(0);  // the dictionary maps count as the dictionary's time
-    Rows contact_rows(static_cast<std::size_t>(batch_angles));
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) { contact_rows[a] = box_of_flags(contact.data() + a * per_angle_); });
+    Rows contact_rows(view_count);
+    parallel_for(view_count, [&](std::size_t v) { contact_rows[v] = box_of_flags(contact.data() + v * per_angle_); });
     Meets dictionary;
     for (MapTest& test : required_maps_[1]) dictionary.push_back(run_map(test, 1, angle_first, batch_angles, contact_rows, &contact));
-    // Row by row, so a pose's offsets come without dividing its index; angles on all cores: first
-    // each angle's outcomes and survivor count, then its survivors in place (angle order).
-    PoseOutcome* outcomes = result_.outcomes.data() + std::size_t(angle_first) * std::size_t(per_angle_);
-    const auto for_each_contact = [&](std::size_t a, const auto& visit) {
-        const Band& band = contact_rows[a];
+    // Row by row, so a pose's offsets come without dividing its index; views on all cores: first
+    // each view's outcomes and survivor count, then its survivors in place (view order).
+    const auto for_each_contact = [&](std::size_t v, const auto& visit) {
+        const Band& band = contact_rows[v];
         for (int j = band[0]; j <= band[1]; ++j) {
-            const std::size_t row = a * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::size_t row = std::size_t(j) * std::size_t(width_);
             for (int i = band[2]; i <= band[3]; ++i)
-                if (contact[row + std::size_t(i)]) visit(row + std::size_t(i), i, j);
+                if (contact[v * per_angle_ + row + std::size_t(i)]) visit(row + std::size_t(i), i, j);
         }
     };
-    std::vector<std::size_t> kept(std::size_t(batch_angles) + 1, 0);
-    std::vector<std::uint64_t> in_contact(static_cast<std::size_t>(batch_angles), 0);
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        std::uint64_t contacts = 0, passed = 0;  // local: neighbouring angles' counters share a cache line
-        for_each_contact(a, [&](std::size_t pose, int, int) {
+    std::vector<std::size_t> kept(view_count + 1, 0);
+    std::vector<std::uint64_t> in_contact(view_count, 0);
+    parallel_for(view_count, [&](std::size_t v) {
+        PoseOutcome* outcomes = view_outcomes(angle_first, int(v));
+        std::uint64_t contacts = 0, passed = 0;  // local: neighbouring views' counters share a cache line
+        for_each_contact(v, [&](std::size_t pose, int, int) {
             ++contacts;
-            if (passes_all(dictionary, pose)) ++passed;
+            if (passes_all(dictionary, v * per_angle_ + pose)) ++passed;
             else outcomes[pose] = PoseOutcome::FailsDictionary;
         });
-        in_contact[a] = contacts;
-        kept[a + 1] = passed;
+        in_contact[v] = contacts;
+        kept[v + 1] = passed;
     });
-    for (int a = 0; a < batch_angles; ++a) {
-        kept[std::size_t(a) + 1] += kept[std::size_t(a)];
-        tools_.stats.poses_per_stage[1] += in_contact[std::size_t(a)];
+    for (std::size_t v = 0; v < view_count; ++v) {
+        kept[v + 1] += kept[v];
+        tools_.stats.poses_per_stage[1] += in_contact[v];
     }
     std::vector<Pose> survivors(kept.back());
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        std::size_t next = kept[a];
-        for_each_contact(a, [&](std::size_t pose, int i, int j) {
-            if (outcomes[pose] != PoseOutcome::FailsDictionary) survivors[next++] = {angle_first + int(a), range_.i_first + i, range_.j_first + j, 0};
+    parallel_for(view_count, [&](std::size_t v) {
+        const PoseOutcome* outcomes = view_outcomes(angle_first, int(v));
+        const int angle = angle_first + int(v) / heights_, level = int(v) % heights_;
+        std::size_t next = kept[v];
+        for_each_contact(v, [&](std::size_t pose, int i, int j) {
+            if (outcomes[pose] != PoseOutcome::FailsDictionary) survivors[next++] = {angle, range_.i_first + i, range_.j_first + j, level};
         });
     });
     return survivors;
@@ -212,14 +222,14 @@ std::vector<Pose> SweepRun::contact_pose_by_pose(int angle_first, int batch_angl
     return survivors;
 }
 
-// Clears the candidates (per pose of the batch) that `meets` fails and shrinks each angle's box
-// to those left; angles on all cores.
+// Clears the candidates (per pose of the batch) that `meets` fails and shrinks each view's box
+// to those left; views on all cores.
 void SweepRun::keep_passed(const std::vector<std::uint8_t>& meets, int batch_angles, std::vector<std::uint8_t>& candidates, Rows& rows) const {
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        Band& band = rows[a];
+    parallel_for(std::size_t(views(batch_angles)), [&](std::size_t v) {
+        Band& band = rows[v];
         Band still{height_, -1, width_, -1};
         for (int j = band[0]; j <= band[1]; ++j) {
-            const std::size_t row = a * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::size_t row = v * per_angle_ + std::size_t(j) * std::size_t(width_);
             for (int i = band[2]; i <= band[3]; ++i) candidates[row + std::size_t(i)] &= meets[row + std::size_t(i)];
             widen_by_flags(still, candidates.data() + row, j, band[2], band[3]);
         }
@@ -230,27 +240,28 @@ void SweepRun::keep_passed(const std::vector<std::uint8_t>& meets, int batch_ang
 // Stage 1..3 on the survivors of the stage before, by maps where the cost model says they pay off,
 // else pose by pose. Returns the poses that pass; the rest get this stage's outcome.
 std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles) {
-    const std::uint64_t batch_poses = per_angle_ * std::uint64_t(batch_angles);
-    const std::vector<std::size_t> starts = angle_starts(survivors, angle_first, batch_angles);
-    // Per angle, on all cores: each writes its own band and its own poses' entries.
-    const auto for_each_angle = [&](const std::function<void(std::size_t a, std::size_t first, std::size_t end)>& work) {
-        parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(a, starts[a], starts[a + 1]); });
+    const std::size_t view_count = std::size_t(views(batch_angles));
+    const std::uint64_t batch_poses = per_angle_ * view_count;
+    const std::vector<std::size_t> starts = view_starts(survivors, angle_first, batch_angles);
+    // Per view, on all cores: each writes its own band and its own poses' entries.
+    const auto for_each_view = [&](const std::function<void(std::size_t v, std::size_t first, std::size_t end)>& work) {
+        parallel_for(view_count, [&](std::size_t v) { work(v, starts[v], starts[v + 1]); });
     };
     std::vector<std::uint8_t> passes;
-    Rows rows(std::size_t(batch_angles), {height_, -1, width_, -1});
+    Rows rows(view_count, {height_, -1, width_, -1});
     // Kept between stages and batches, each angle clearing its own: a fresh zeroed list was a
     // serial clear of every pose of the batch in every stage.
     std::vector<std::uint8_t>& candidates = candidates_scratch_;
     candidates.resize(batch_poses);
-    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
-        std::fill_n(candidates.data() + a * per_angle_, per_angle_, std::uint8_t(0));
-        Band band = rows[a];  // local: neighbouring angles' bands share a cache line
+    for_each_view([&](std::size_t v, std::size_t first, std::size_t end) {
+        std::fill_n(candidates.data() + v * per_angle_, per_angle_, std::uint8_t(0));
+        Band band = rows[v];  // local: neighbouring views' bands share a cache line
         for (std::size_t p = first; p < end; ++p) {
             const Pose& q = survivors[p];
             widen(band, q[2] - range_.j_first, q[1] - range_.i_first);
-            candidates[outcome_index(q) - std::size_t(angle_first) * std::size_t(per_angle_)] = 1;
+            candidates[batch_index(q, angle_first)] = 1;
         }
-        rows[a] = band;
+        rows[v] = band;
     });
     // Every angle's first map pass is cut (on all cores), and the cost model's sample angle whole,
     // before the model reads it: the maps then use them as they are and cut each angle's other rows
@@ -259,9 +270,11 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
     // decided by the first passes could have used.)
     std::vector<MapTest>& maps = optional_maps_[std::size_t(stage)];
     const bool may_map = !maps.empty() && !survivors.empty();
+    // With several heights every stage goes by maps (a pose test takes one height), and no angle
+    // is cut whole for the cost model.
     if (may_map)
-        for (MapTest& test : maps) cut_angles(test, angle_first, batch_angles, rows, &candidates, model_sample(rows));
-    if (may_map && maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates)) {
+        for (MapTest& test : maps) cut_angles(test, angle_first, batch_angles, rows, &candidates, heights_ > 1 ? -1 : model_sample(rows));
+    if (may_map && (heights_ > 1 || maps_pay_off(stage, survivors.size(), batch_angles, rows, candidates))) {
         Meets meets;
         for (std::size_t m = 0; m < maps.size(); ++m) {
             // A pose that fails one test of the stage fails the stage: each later map needs only
@@ -272,29 +285,31 @@ std::vector<Pose> SweepRun::later_stage(int stage, std::vector<Pose> survivors, 
             meets.push_back(run_map(maps[m], stage, angle_first, batch_angles, rows, &candidates, true));
         }
         passes.resize(survivors.size());
-        // The maps hold the batch's poses in outcome order, starting at angle_first.
-        for_each_angle([&](std::size_t, std::size_t first, std::size_t end) {
-            for (std::size_t p = first; p < end; ++p)
-                passes[p] = passes_all(meets, outcome_index(survivors[p]) - std::size_t(angle_first) * std::size_t(per_angle_));
+        // The maps hold the batch's poses view by view.
+        for_each_view([&](std::size_t, std::size_t first, std::size_t end) {
+            for (std::size_t p = first; p < end; ++p) passes[p] = passes_all(meets, batch_index(survivors[p], angle_first));
         });
+    } else if (heights_ > 1) {
+        if (!survivors.empty() && !stages_[std::size_t(stage)].empty()) fail("sweep", "internal: a stage without maps in a run of several heights");
+        passes.assign(survivors.size(), 1);
     } else {
         passes = decide(stage, survivors, angle_first, batch_angles);
     }
-    // Each angle's failures get this stage's outcome, then its passes move down in place (angle order).
-    std::vector<std::size_t> kept(std::size_t(batch_angles) + 1, 0);
-    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
+    // Each view's failures get this stage's outcome, then its passes move down in place (view order).
+    std::vector<std::size_t> kept(view_count + 1, 0);
+    for_each_view([&](std::size_t v, std::size_t first, std::size_t end) {
         std::size_t passed = 0;
         for (std::size_t p = first; p < end; ++p) {
             if (passes[p]) ++passed;
             else result_.outcomes[outcome_index(survivors[p])] = PoseOutcome(stage);
         }
-        kept[a + 1] = passed;
+        kept[v + 1] = passed;
     });
-    for (int a = 0; a < batch_angles; ++a) kept[std::size_t(a) + 1] += kept[std::size_t(a)];
-    // The passes of every angle at once, each into its own stretch (angle order).
+    for (std::size_t v = 0; v < view_count; ++v) kept[v + 1] += kept[v];
+    // The passes of every view at once, each into its own stretch (view order).
     std::vector<Pose> passed(kept.back());
-    for_each_angle([&](std::size_t a, std::size_t first, std::size_t end) {
-        std::size_t next = kept[a];
+    for_each_view([&](std::size_t v, std::size_t first, std::size_t end) {
+        std::size_t next = kept[v];
         for (std::size_t p = first; p < end; ++p)
             if (passes[p]) passed[next++] = survivors[p];
     });

@@ -49,6 +49,11 @@ struct SweeperOptions {
     // pass leave play and later passes skip the runs that reach only decided poses (1: one pass;
     // at most 16).
     int map_passes = 5;
+    // Heights of B (z_range) one run sweeps together (1: one run per height). B's runs are then cut
+    // and pruned once per angle for all of them, and each map pass pairs them with A's runs at
+    // every height in one dispatch; a batch then holds fewer angles (its maps are per height).
+    // Needs maps on and pose_test_pairs above 0 (every stage goes by maps).
+    int heights_per_run = 16;
 };
 
 struct SweepStats {

@@ -160,7 +160,7 @@ Band reach_of(const MapTest& test, int angle_in_batch, std::span<const std::span
                std::numeric_limits<std::int32_t>::min()};
     for (const std::span<const SliceRun> runs : parts)
         for (const SliceRun& run : runs) {
-            const auto& box = test.runs().key_boxes[std::size_t(run.key - key_base)];
+            const auto& box = test.reach_runs().key_boxes[std::size_t(run.key - key_base)];
             if (box[0] > box[1]) continue;
             reach = {std::min(reach[0], box[2] - run.y), std::max(reach[1], box[3] - run.y), std::min(reach[2], box[0] - run.x_last),
                      std::max(reach[3], box[1] - run.x_first)};
@@ -215,20 +215,54 @@ private:
     std::size_t stride_;
 };
 
-// prune_pulled_runs on one part's runs of a pass.
-void prune_part(const MapTest& test, const RunsInPlay& in_play, std::int32_t key_base, std::int32_t j_first, std::span<const SliceRun> runs,
-                std::uint64_t& pairs, std::vector<PulledRun>& out) {
+// The fixed runs of key `fixed_key` on rows y0..y1: the pairs one pulled run visits there.
+std::uint64_t pairs_on_rows(const FixedRuns& fixed, std::int32_t fixed_key, std::int32_t y0, std::int32_t y1) {
+    const auto [key_first, key_count] = fixed.by_key[std::size_t(fixed_key)];
+    const auto key_begin = fixed.runs.begin() + key_first, key_end = key_begin + key_count;
+    const auto from = std::lower_bound(key_begin, key_end, y0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
+    const auto to = std::upper_bound(from, key_end, y1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
+    return std::uint64_t(to - from);
+}
+
+// The heights (a bit each) at which a run, paired on rows j0..j1 of the union of the heights'
+// poses in play, can set a bit of a pose in play at that height: where the fixed runs at its key
+// lifted by the height, moved by the run, hold one (their box; null `heights`: the one height).
+std::uint32_t heights_reached(const MapTest& test, const HeightsInPlay* heights, const SliceRun& run, std::int32_t fixed_key, int j0, int j1,
+                              std::int32_t i_first, std::int32_t j_first, int width) {
+    if (!heights) return 1u;
+    const std::int32_t zbits = test.runs().zbits;
+    std::uint32_t mask = 0;
+    for (int h = 0; h < int(heights->rows.size()) && fixed_key % zbits + h < zbits; ++h) {
+        const Band& rows = heights->rows[std::size_t(h)];
+        const auto& box = test.runs().key_boxes[std::size_t(fixed_key + h)];
+        if (box[0] > box[1]) continue;
+        const int r0 = std::max({rows[0], j0, box[2] - run.y - j_first}), r1 = std::min({rows[1], j1, box[3] - run.y - j_first});
+        const int c0 = std::max(rows[2], box[0] - run.x_last - i_first), c1 = std::min(rows[3], box[1] - run.x_first - i_first);
+        if (r0 > r1 || c0 > c1) continue;
+        if (heights->open && count_in_play(heights->counts[std::size_t(h)], std::size_t(width) + 1, c0, c1, r0, r1) == 0) continue;
+        mask |= 1u << h;
+    }
+    return mask;
+}
+
+// prune_pulled_runs on one part's runs of a pass; the pairs are counted at each height the run is
+// paired at (a run at slice z meets the fixed runs at z + h).
+void prune_part(const MapTest& test, const RunsInPlay& in_play, const HeightsInPlay* heights, std::int32_t key_base, std::int32_t i_first,
+                std::int32_t j_first, int width, std::span<const SliceRun> runs, std::uint64_t& pairs, std::vector<PulledRun>& out) {
     for (const SliceRun& run : runs) {
         const auto band = in_play.band(run);
         if (!band) continue;
         const auto [j0, j1] = *band;
-        const auto [key_first, key_count] = test.runs().by_key[std::size_t(run.key - key_base)];
-        const auto key_begin = test.runs().runs.begin() + key_first, key_end = key_begin + key_count;
-        const auto from = std::lower_bound(key_begin, key_end, run.y + j_first + j0, [](const SliceRun& r, std::int32_t y) { return r.y < y; });
-        const auto to = std::upper_bound(from, key_end, run.y + j_first + j1, [](std::int32_t y, const SliceRun& r) { return y < r.y; });
-        pairs += std::uint64_t(to - from);
-        out.push_back({run.y, std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16, run.key,
-                       std::uint32_t(j0) | std::uint32_t(j1) << 16});
+        const std::int32_t fixed_key = run.key - key_base;
+        const std::uint32_t mask = heights_reached(test, heights, run, fixed_key, j0, j1, i_first, j_first, width);
+        if (mask == 0) continue;
+        for (int h = 0; h < 16; ++h)
+            if ((mask >> h) & 1u) pairs += pairs_on_rows(test.runs(), fixed_key + h, run.y + j_first + j0, run.y + j_first + j1);
+        const std::int64_t y = std::int64_t(run.y) - test.fixed->y0;
+        if (y < -32768 || y > 32767)
+            fail("key segment", "B reaches {} rows from A's volume, more than the sweep handles (32,767); use a larger voxel", y);
+        const std::uint32_t x = std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16;
+        out.push_back({(std::uint32_t(y) & 0xffffu) | mask << 16, x, run.key, std::uint32_t(j0) | std::uint32_t(j1) << 16});
     }
 }
 
@@ -260,9 +294,9 @@ bool SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
     scratch.rows_through = row_passes[1];
     if (rows[0] > rows[1] || rows[2] > rows[3] || test.runs().runs.empty()) return false;
     const WordClips clips =
-        word_clips(test.runs(), range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
+        word_clips(test.reach_runs(), range_.i_first + rows[2], range_.i_first + rows[3], range_.j_first + rows[0], range_.j_first + rows[1]);
     if (open) count_poses_in_play(pruner, open, rows, width_, height_);
-    const RunsInPlay in_play(pruner, test.runs(), rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
+    const RunsInPlay in_play(pruner, test.reach_runs(), rows, true, key_base_of(test, angle_in_batch), range_.i_first, range_.j_first, width_);
     std::vector<std::size_t> pass_first;
     std::size_t cut = 0;
     const PulledCut how{MapPasses{passes, test.z_phase}, row_passes[0], row_passes[1], &pass_first, open ? &in_play : nullptr, &cut};
@@ -283,7 +317,7 @@ bool SweepRun::cut_pulled_runs(PulledPruner& pruner, const MapTest& test, int an
 // Returns the pairs of runs the kernel will visit.
 std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
                                           std::span<const std::span<const SliceRun>> parts, const std::uint8_t* open,
-                                          std::vector<PulledRun>& out, bool counted) const {
+                                          std::vector<PulledRun>& out, bool counted, const HeightsInPlay* heights) const {
     std::uint64_t pairs = 0;
     if (rows[0] > rows[1] || parts.empty()) return pairs;
     if (open && !counted) {
@@ -293,14 +327,53 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
         count_poses_in_play(pruner, open, reach, width_, height_);
     }
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
-    const RunsInPlay in_play(pruner, test.runs(), rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
+    const RunsInPlay in_play(pruner, test.reach_runs(), rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
     for (const std::span<const SliceRun> runs : parts)
-        prune_part(test, in_play, key_base, range_.j_first, runs, pairs, out);
+        prune_part(test, in_play, heights, key_base, range_.i_first, range_.j_first, width_, runs, pairs, out);
     return pairs;
 }
 
 // Every map, every-frame maps too (close_decided_poses), goes in the same passes.
 int SweepRun::map_passes() const { return std::clamp(tools_.options.map_passes, 1, 16); }
+
+AngleInPlay SweepRun::angle_in_play(int a, const std::uint8_t* open, const Rows& rows, std::vector<std::uint8_t>& joined) const {
+    if (heights_ == 1) return {open ? open + std::size_t(a) * per_angle_ : nullptr, rows[std::size_t(a)]};
+    Band box{height_, -1, width_, -1};
+    for (int h = 0; h < heights_; ++h) {
+        const Band& view = rows[std::size_t(a * heights_ + h)];
+        if (view[0] > view[1] || view[2] > view[3]) continue;
+        box = {std::min(box[0], view[0]), std::max(box[1], view[1]), std::min(box[2], view[2]), std::max(box[3], view[3])};
+    }
+    if (!open || box[0] > box[1]) return {open ? joined.data() : nullptr, box};
+    joined.resize(per_angle_);
+    // Only the box is read (every query of the pruning is clamped to it).
+    for (int j = box[0]; j <= box[1]; ++j)
+        std::fill_n(joined.data() + std::size_t(j) * std::size_t(width_) + std::size_t(box[2]), box[3] - box[2] + 1, std::uint8_t(0));
+    for (int h = 0; h < heights_; ++h) {
+        const std::size_t v = std::size_t(a * heights_ + h);
+        const Band& view = rows[v];
+        for (int j = view[0]; j <= view[1]; ++j) {
+            const std::size_t row = std::size_t(j) * std::size_t(width_);
+            const std::uint8_t* from = open + v * per_angle_ + row;
+            std::uint8_t* to = joined.data() + row;
+            for (int i = view[2]; i <= view[3]; ++i) to[i] |= from[i];
+        }
+    }
+    return {joined.data(), box};
+}
+
+void SweepRun::count_heights_in_play(int a, const std::uint8_t* open, const Rows& rows, HeightsInPlay& heights) const {
+    heights.counts.resize(std::size_t(heights_));
+    heights.rows.resize(std::size_t(heights_));
+    heights.open = open != nullptr;
+    for (int h = 0; h < heights_; ++h) {
+        const std::size_t v = std::size_t(a * heights_ + h);
+        const Band& band = rows[v];
+        heights.rows[std::size_t(h)] = band;
+        if (open && band[0] <= band[1] && band[2] <= band[3])
+            count_poses_in_play(heights.counts[std::size_t(h)], open + v * per_angle_, band, width_, height_);
+    }
+}
 
 void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, const Rows& rows, const std::vector<std::uint8_t>* open,
                           int whole_angle) const {
@@ -308,9 +381,10 @@ void SweepRun::cut_angles(MapTest& test, int angle_first, int batch_angles, cons
     const int passes = map_passes();
     parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
         thread_local PulledPruner pruner;
+        thread_local std::vector<std::uint8_t> joined;
         const std::array<int, 2> row_passes{0, int(a) == whole_angle ? passes - 1 : 0};
-        cut_pulled_runs(pruner, test, angle_first + int(a), int(a), rows[a], passes, open ? open->data() + a * per_angle_ : nullptr, row_passes,
-                        test.angles[a]);
+        const AngleInPlay in_play = angle_in_play(int(a), open ? open->data() : nullptr, rows, joined);
+        cut_pulled_runs(pruner, test, angle_first + int(a), int(a), in_play.rows, passes, in_play.open, row_passes, test.angles[a]);
     });
 }
 
@@ -332,23 +406,23 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     if (x_span > 0xffff) fail("key segment", "pulled runs span {} columns, more than the sweep handles (65,535); use a larger voxel", x_span);
     const int passes = map_passes();
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
-    // Host work per angle, on all cores while the device waits.
+    // Host work per angle (or view), on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
     // Kept between maps and batches (the same size batch after batch: no clearing), filled per
-    // angle on all cores; without candidates it holds nothing until the first pass closes poses.
+    // view on all cores; without candidates it holds nothing until the first pass closes poses.
     std::vector<std::uint8_t>& open = open_scratch_;
     bool open_known = candidates != nullptr;
     if (candidates) {
         open.resize(candidates->size());
-        for_each_angle([&](int a) {
-            const std::size_t first = std::size_t(a) * per_angle_;
-            std::copy_n(candidates->data() + first, per_angle_, open.data() + first);
+        parallel_for(std::size_t(views(batch_angles)), [&](std::size_t v) {
+            std::copy_n(candidates->data() + v * per_angle_, per_angle_, open.data() + v * per_angle_);
         });
     }
-    Rows open_rows = rows;  // per angle: the box of the poses in play
+    Rows open_rows = rows;  // per view: the box of the poses in play
     if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows, nullptr);
     const int maps = test.maps_per_angle();
-    const std::uint64_t map_bytes = std::uint64_t(batch_angles) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
+    const std::uint64_t map_bytes =
+        std::uint64_t(views(batch_angles)) * std::uint64_t(maps) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     map_words_.ensure(tools_.context, map_bytes);
     sequence_.fill(map_words_.device(), map_bytes, 0u);
     // The clear must land before the runs OR their intervals in.
@@ -359,20 +433,25 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
         for_each_angle([&](int a) {
             thread_local PulledPruner pruner;
             thread_local std::vector<std::span<const SliceRun>> parts;
+            thread_local std::vector<std::uint8_t> joined;
+            thread_local HeightsInPlay heights;
             AngleScratch& scratch = test.angles[std::size_t(a)];
-            const std::uint8_t* angle_open = open_known ? open.data() + std::size_t(a) * per_angle_ : nullptr;
+            // One cut and one prune for every height of the angle: against the poses in play at any.
+            const AngleInPlay in_play = angle_in_play(a, open_known ? open.data() : nullptr, open_rows, joined);
+            const std::uint8_t* angle_open = in_play.open;
+            if (heights_ > 1) count_heights_in_play(a, open_known ? open.data() : nullptr, open_rows, heights);
             // This pass's rows are cut now, within the box of the poses still in play. Where the
             // first pass's were cut against the candidates (the later stages: few poses in play),
             // so are they, against those still open; contact's and the dictionary's poses in play
             // are dense, and a filter there costs what the copies it saves do.
             bool counted = false;  // the cut's prefix sums of the poses in play are the prune's
             if (scratch.rows_through < pass)
-                counted = cut_pulled_runs(pruner, test, angle_first + a, a, open_rows[std::size_t(a)], passes, runs_cut ? angle_open : nullptr,
-                                          {pass, pass}, scratch);
+                counted = cut_pulled_runs(pruner, test, angle_first + a, a, in_play.rows, passes, runs_cut ? angle_open : nullptr, {pass, pass},
+                                          scratch);
             scratch.pruned.clear();
             scratch.runs_of_pass(pass, passes, parts);
-            pairs_of[std::size_t(a)] = prune_pulled_runs(pruner, test, open_rows[std::size_t(a)], a, parts, angle_open, scratch.pruned,
-                                                         counted);
+            pairs_of[std::size_t(a)] =
+                prune_pulled_runs(pruner, test, in_play.rows, a, parts, angle_open, scratch.pruned, counted, heights_ > 1 ? &heights : nullptr);
         });
         std::size_t total_runs = 0;
         int longest = 0;
@@ -416,14 +495,15 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
             fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs().longest + longest);
         const int runs_per_chunk = int((budget - search) / per_run);
         const int chunks = std::max(1, (test.runs().most_per_key + runs_per_chunk - 1) / runs_per_chunk);
-        const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
+        // An item per height, pulled run and chunk: each height's key is its own search and walk.
+        const std::uint64_t items = std::uint64_t(heights_) * std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
         set.emplace(tools_.map.bind(
             {test.fixed_side->packed.get(), test.fixed_side->keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
         // The words the maps' texel view covers (Kernel::bind cuts it to the device's limit).
         const std::uint32_t texel_words = std::uint32_t(std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements));
-        const MapParams params{0, 0, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),
+        const MapParams params{0, 0, std::uint32_t(run_count), heights_, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
                                test.pulled_x0, texel_words};
@@ -483,14 +563,15 @@ void SweepRun::close_decided_poses(const MapTest& test, int batch_angles, bool o
     const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
     const int maps = test.maps_per_angle();
     const std::size_t stride = std::size_t(height_) * std::size_t(row_words_);
-    if (!open_known) open.resize(per_angle_ * std::size_t(batch_angles));
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
-        if (!open_known) std::fill_n(open.data() + a * per_angle_, per_angle_, std::uint8_t(1));
-        Band& band = open_rows[a];
+    const std::size_t view_count = std::size_t(views(batch_angles));
+    if (!open_known) open.resize(per_angle_ * view_count);
+    parallel_for(view_count, [&](std::size_t v) {
+        if (!open_known) std::fill_n(open.data() + v * per_angle_, per_angle_, std::uint8_t(1));
+        Band& band = open_rows[v];
         Band still{height_, -1, width_, -1};
         for (int j = band[0]; j <= band[1]; ++j) {
-            std::uint8_t* row_open = open.data() + std::size_t(a) * per_angle_ + std::size_t(j) * std::size_t(width_);
-            const std::uint32_t* row = words + (std::size_t(a) * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            std::uint8_t* row_open = open.data() + v * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (v * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
             // Word by word (whole words in a loop the compiler vectorises); outside the band the
             // row holds no pose in play, so clearing there changes nothing.
             for (int w = band[2] >> 5; w <= band[3] >> 5; ++w) {
@@ -513,12 +594,13 @@ void SweepRun::close_decided_poses(const MapTest& test, int batch_angles, bool o
 std::vector<std::uint8_t> SweepRun::read_map(const MapTest& test, int batch_angles) const {
     const int maps = test.maps_per_angle();
     const std::uint32_t* words = map_words_.host<std::uint32_t>().data();
-    std::vector<std::uint8_t> meets(per_angle_ * std::uint64_t(batch_angles));
+    const std::size_t view_count = std::size_t(views(batch_angles));
+    std::vector<std::uint8_t> meets(per_angle_ * view_count);
     const std::uint8_t when_set = test.want == Want::NoOverlap ? 0 : 1;
-    parallel_for(std::size_t(batch_angles), [&](std::size_t a) {
+    parallel_for(view_count, [&](std::size_t v) {
         for (int j = 0; j < height_; ++j) {
-            std::uint8_t* out = meets.data() + a * per_angle_ + std::size_t(j) * std::size_t(width_);
-            const std::uint32_t* row = words + (a * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
+            std::uint8_t* out = meets.data() + v * per_angle_ + std::size_t(j) * std::size_t(width_);
+            const std::uint32_t* row = words + (v * std::size_t(maps) * std::size_t(height_) + std::size_t(j)) * std::size_t(row_words_);
             for (int w = 0; w < row_words_; ++w) {
                 const std::uint32_t bits = overlap_found(test, row + w, maps, std::size_t(height_) * std::size_t(row_words_));
                 if (w * 32 + 32 <= width_) {

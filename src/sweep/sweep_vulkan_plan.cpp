@@ -11,8 +11,9 @@ namespace amhv::gpu::sweep_detail {
 
 namespace {
 
-PoseRange level_of(PoseRange range, int level) {
-    range.z_first = range.z_last = level;
+PoseRange levels_of(PoseRange range, int first, int count) {
+    range.z_first = first;
+    range.z_last = first + count - 1;
     return range;
 }
 
@@ -72,14 +73,15 @@ struct PlannedTest {
 
 }  // namespace
 
-SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level)
+SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level_first, int heights)
     : problem_(problem),
       tools_(tools),
       share_(share),
       frames_(problem.frames()),
       last_(problem.frames() - 1),
       type_(problem.type),
-      range_(level_of(problem.range, level)),
+      range_(levels_of(problem.range, level_first, heights)),
+      heights_(heights),
       width_(problem.range.width()),
       height_(problem.range.height()),
       block_(std::max(1, tools.options.block)),
@@ -92,7 +94,9 @@ SweepRun::SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& s
     if (problem.visibility) grids_a.push_back(&problem.a.view_cone.grid), grids_b.push_back(&problem.b.view_cone.grid);
     // One frame for every height, so that A's volumes are the same bits at each (HeightShare).
     z_ = z_frame_covering(grids_a, grids_b, problem.range.z_first, problem.range.z_last);
-    z_b_ = raised_frame(z_, level);
+    if (heights < 1 || (heights > 1 && !heights_in_one(tools.options)) || range_.z_last > problem.range.z_last)
+        fail("sweep", "internal: a run of {} heights from level {}", heights, level_first);
+    z_b_ = raised_frame(z_, level_first);
     plan_stages();
     for (int stage = 0; stage < 4; ++stage)
         for (const OverlapTest& test : stages_[std::size_t(stage)]) pose_iterations_[std::size_t(stage)] += pose_test_iterations(test);
@@ -190,7 +194,7 @@ void SweepRun::plan_maps() {
     std::vector<int> every_frame(static_cast<std::size_t>(frames_));
     for (int t = 0; t < frames_; ++t) every_frame[std::size_t(t)] = 1 + t;
     auto map_test = [](const ColumnVolume& fixed, const ColumnVolume& moving, std::vector<int> slots, Want want, int needed = 0) {
-        return MapTest{&fixed, &moving, std::move(slots), want, nullptr, {}, 0, 0, {}, needed};
+        return MapTest{&fixed, &moving, std::move(slots), want, nullptr, nullptr, {}, 0, 0, {}, needed};
     };
     auto map_of = [&](const OverlapTest& test) {
         std::vector<int> slots{0};
@@ -249,6 +253,21 @@ void SweepRun::cut_map_volumes(const std::vector<MapTest*>& tests) {
         test->fixed_side = side.get();
     }
     parallel_for(first_cuts.size(), [&](std::size_t k) { first_cuts[k]->fixed_side->runs = fixed_runs(*first_cuts[k]->fixed, first_cuts[k]->slots); });
+    // With several heights, the pruning reads A's runs lowered over them (once per count of heights).
+    std::vector<MapTest*> first_reaches;
+    for (MapTest* test : tests) {
+        if (heights_ == 1) {
+            test->reach = &test->runs();
+            continue;
+        }
+        auto [entry, added] = test->fixed_side->reach_by_heights.try_emplace(heights_);
+        if (added) first_reaches.push_back(test);
+        test->reach = &entry->second;
+    }
+    parallel_for(first_reaches.size(), [&](std::size_t k) {
+        MapTest& test = *first_reaches[k];
+        test.fixed_side->reach_by_heights[heights_] = fixed_runs(lowered_union(*test.fixed, heights_), test.slots);
+    });
     parallel_for(tests.size(), [&](std::size_t k) {
         tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);
         tests[k]->z_phase = densest_shared_slice(tests[k]->runs(), tests[k]->moving_words);
@@ -282,6 +301,9 @@ void SweepRun::upload_angle_tables() {
     Context& context = tools_.context;
     for_each_test([&](const OverlapTest& test) {
         if (test.fixed->columns.slots != test.moving->columns.slots) fail("sweep", "internal: slot counts differ in one test");
+    });
+    if (heights_ > 1) return;  // only pose tests read them
+    for_each_test([&](const OverlapTest& test) {
         if (test.moving->angles) return;
         std::vector<std::uint8_t> table(32 + std::size_t(range_.angles) * sizeof(GpuAngle));
         std::int64_t roots[4] = {root_a_[0], root_a_[1], root_b_[0], root_b_[1]};
@@ -323,13 +345,14 @@ void SweepRun::size_batches() {
     for (const auto* all : {&required_maps_, &optional_maps_})
         for (const auto& stage : *all)
             for (const MapTest& test : stage) maps_per_angle = std::max<std::uint64_t>(maps_per_angle, std::uint64_t(test.maps_per_angle()));
-    const std::uint64_t map_bytes_per_angle = maps_per_angle * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
+    const std::uint64_t map_bytes_per_angle = maps_per_angle * std::uint64_t(heights_) * std::uint64_t(height_) * std::uint64_t(row_words_) * 4;
     const std::uint64_t max_map_bytes = std::min<std::uint64_t>(options.max_map_bytes, tools_.context.selected().max_storage_buffer_range);
     if (map_bytes_per_angle > max_map_bytes)
         fail("sweep", "the overlap maps of one angle need {} bytes, more than the {} a batch may hold; narrow the x/y range", map_bytes_per_angle,
              max_map_bytes);
     const std::uint64_t round = options.angles_per_core_round > 0 ? std::uint64_t(options.angles_per_core_round) : core_count();
-    std::uint64_t batch_limit = (max_poses / per_angle_ + round - 1) / round * round;
+    const std::uint64_t poses_per_angle = per_angle_ * std::uint64_t(heights_);
+    std::uint64_t batch_limit = (max_poses / poses_per_angle + round - 1) / round * round;
     if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
     angles_per_batch_ = int(std::max<std::uint64_t>(1, batch_limit));
     if (width_ > 0xffff || height_ > 0xffff)

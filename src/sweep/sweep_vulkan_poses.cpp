@@ -65,7 +65,8 @@ Pose SweepRun::implicit_pose(int angle_first, std::uint64_t p) const {
 }
 
 std::size_t SweepRun::outcome_index(const Pose& p) const {
-    return (std::size_t(p[0]) * std::size_t(height_) + std::size_t(p[2] - range_.j_first)) * std::size_t(width_) +
+    return ((std::size_t(p[3]) * std::size_t(range_.angles) + std::size_t(p[0])) * std::size_t(height_) + std::size_t(p[2] - range_.j_first)) *
+               std::size_t(width_) +
            std::size_t(p[1] - range_.i_first);
 }
 

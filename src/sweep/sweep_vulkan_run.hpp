@@ -43,6 +43,8 @@ static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guarantee
 
 struct MapParams {
     std::uint32_t item_base, item_count;
+    std::uint32_t run_count;  // pulled runs; the items are (height, run, chunk), height first
+    std::int32_t heights;     // the run's heights: a pulled run at slice z meets the fixed runs at z + h
     std::int32_t chunks, runs_per_chunk;
     std::int32_t zbits, slot_count;
     std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
@@ -52,10 +54,11 @@ struct MapParams {
 };
 static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
-// A pulled run as the map kernel reads it: x packed relative to the batch's pulled_x0, and the
-// rows j (first | last << 16) it is paired on.
+// A pulled run as the map kernel reads it: y relative to the fixed volume's y0 (16 bits, signed)
+// with the heights it is paired at (a bit each, from bit 16), x packed relative to the batch's
+// pulled_x0, and the rows j (first | last << 16) it is paired on.
 struct PulledRun {
-    std::int32_t y;
+    std::uint32_t y_heights;
     std::uint32_t x;
     std::int32_t key;
     std::uint32_t rows;
@@ -117,6 +120,10 @@ struct AngleScratch {
 struct FixedSide {
     FixedRuns runs;
     std::unique_ptr<Buffer> packed, keys;
+    // Per count of heights above one: the runs of lowered_union(volume, heights), which one prune
+    // of B's runs reads for every height of a run (a run reaches a pose at some height exactly
+    // when it reaches it in these).
+    std::map<int, FixedRuns> reach_by_heights;
 };
 
 // One overlap test decided for every offset of an angle at once (shaders/sweep_map.comp). Slot s
@@ -127,6 +134,7 @@ struct MapTest {
     std::vector<int> slots;
     Want want;  // Overlap: in some slot pair; NoOverlap: in none; Frames: in at least `needed`
     FixedSide* fixed_side = nullptr;  // the fixed volume's runs for `slots` (HeightShare)
+    const FixedRuns* reach = nullptr;  // what pruning reads: runs(), or with several heights their lowered union
     SparseColumns moving_words;  // the moving volume's slots, as the host cuts them into pulled runs
     std::int32_t pulled_x0 = 0;  // the first column pulled runs can start at (their packed x is relative to it)
     int z_phase = 0;             // MapPasses::z_phase of its pulled runs (densest_shared_slice)
@@ -134,6 +142,7 @@ struct MapTest {
     int needed = 0;
     int maps_per_angle() const { return want == Want::Frames ? int(slots.size()) : 1; }
     const FixedRuns& runs() const { return fixed_side->runs; }
+    const FixedRuns& reach_runs() const { return *reach; }
 };
 
 // What every height of a sweep shares: A's side, which never moves (only B is raised), built by
@@ -165,9 +174,9 @@ struct Blocks {
     int frames_per_item = 0, spatial_items = 1;
 };
 
-using Pose = std::array<std::int32_t, 4>;  // angle, i, j, unused
-// Per angle: the box of the poses in play, first and last row j - j_first, then first and last
-// column i - i_first (first > last: none).
+using Pose = std::array<std::int32_t, 4>;  // angle, i, j, height (of the run's heights; pose tests: 0)
+// Per view (angle and height of a batch): the box of the poses in play, first and last row
+// j - j_first, then first and last column i - i_first (first > last: none).
 using Band = std::array<std::int32_t, 4>;
 using Rows = std::vector<Band>;
 
@@ -209,9 +218,25 @@ double pose_test_iterations(const OverlapTest& test);
 // Overlap or EveryFrame test fail and a NoOverlap test pass; a pooled overlap proves nothing.
 enum class Verdict : std::uint8_t { Fail, Pass, Undecided };
 
+// The poses in play of one angle of a batch at any of its run's heights (per pose of the angle;
+// null: every pose of the box) and their box.
+struct AngleInPlay {
+    const std::uint8_t* open;
+    Band rows;
+};
+
 // Scratch of the pulled-run pruning, reused by one thread.
 struct PulledPruner {
     std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
+};
+
+// With several heights: per height of one angle, its poses in play counted (null: every pose of
+// its box is) and their box. The prune pairs a run only at the heights where the fixed runs at its
+// lifted key, moved by the run, hold a pose in play.
+struct HeightsInPlay {
+    std::vector<PulledPruner> counts;
+    std::vector<Band> rows;
+    bool open = false;
 };
 
 // The kernels and settings a run borrows from its VulkanSweeper.
@@ -226,10 +251,16 @@ struct SweepTools {
 
 class SweepRun {
 public:
-    // The poses of one height: B raised by `level` voxels; A's side comes from `share` (and goes
-    // there when it is not yet).
-    SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level);
-    // The outcomes of that height (a result whose range is that one level).
+    // The poses of `heights` heights: B raised by `level_first` voxels and by each level above it
+    // up to `heights`; A's side comes from `share` (and goes there when it is not yet). Several
+    // heights need overlap maps for every stage (SweepRun::heights_in_one): B's runs are cut and
+    // pruned once per angle for all of them, and each map pairs them with A's runs at every lift.
+    SweepRun(const SweepProblem& problem, SweepTools tools, HeightShare& share, int level_first, int heights = 1);
+    // Whether a sweep with `options` may put several heights in one run: every stage then goes
+    // by maps (pose tests take one height).
+    static bool heights_in_one(const SweeperOptions& options) { return options.maps && options.pose_test_pairs > 0 && options.heights_per_run > 1; }
+    static constexpr int kMaxHeights = 16;  // a pulled run holds a bit per height
+    // The outcomes of those heights (a result whose range is those levels).
     SweepResult run();
 
 private:
@@ -283,7 +314,12 @@ private:
                          const std::uint8_t* open, std::array<int, 2> row_passes, AngleScratch& scratch) const;
     std::uint64_t prune_pulled_runs(PulledPruner& pruner, const MapTest& test, const Band& rows, int angle_in_batch,
                                     std::span<const std::span<const SliceRun>> runs, const std::uint8_t* open, std::vector<PulledRun>& out,
-                                    bool counted = false) const;
+                                    bool counted = false, const HeightsInPlay* heights = nullptr) const;
+    // Angle a's views joined (`open`: per pose of the batch, or null; `rows`: per view), in
+    // `joined` where there are several heights.
+    AngleInPlay angle_in_play(int a, const std::uint8_t* open, const Rows& rows, std::vector<std::uint8_t>& joined) const;
+    // Angle a's heights, each with its poses in play counted (`open`: per pose of the batch, or null).
+    void count_heights_in_play(int a, const std::uint8_t* open, const Rows& rows, HeightsInPlay& heights) const;
     // Cuts the rows of the first map pass of every angle of the batch into test.angles, on all
     // cores (every row of angle `whole_angle`); with `open` (per pose of the batch), only the runs
     // that reach a pose in play.
@@ -310,7 +346,19 @@ private:
     std::vector<Pose> contact_and_dictionary_by_maps(int angle_first, int batch_angles);
     std::vector<Pose> contact_pose_by_pose(int angle_first, int batch_angles);
     std::vector<Pose> later_stage(int stage, std::vector<Pose> survivors, int angle_first, int batch_angles);
-    std::vector<std::size_t> angle_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const;
+    std::vector<std::size_t> view_starts(const std::vector<Pose>& poses, int angle_first, int batch_angles) const;
+    // A batch holds a view per angle and height, angle after angle, each per_angle_ poses.
+    int views(int batch_angles) const { return batch_angles * heights_; }
+    // Pose p's index among its batch's poses (views in order, then row, then column).
+    std::size_t batch_index(const Pose& p, int angle_first) const {
+        return (std::size_t(p[0] - angle_first) * std::size_t(heights_) + std::size_t(p[3])) * per_angle_ +
+               std::size_t(p[2] - range_.j_first) * std::size_t(width_) + std::size_t(p[1] - range_.i_first);
+    }
+    // The outcomes of a view's poses (row by row).
+    PoseOutcome* view_outcomes(int angle_first, int view) {
+        const std::size_t angle = std::size_t(angle_first + view / heights_), level = std::size_t(view % heights_);
+        return result_.outcomes.data() + (level * std::size_t(range_.angles) + angle) * per_angle_;
+    }
     void keep_passed(const std::vector<std::uint8_t>& meets, int batch_angles, std::vector<std::uint8_t>& candidates, Rows& rows) const;
 
     const SweepProblem& problem_;
@@ -318,10 +366,11 @@ private:
     HeightShare& share_;
     const int frames_, last_;
     const InteractionType type_;
-    const PoseRange range_;  // the problem's, cut to the one level
+    const PoseRange range_;  // the problem's, cut to the run's levels
+    const int heights_;      // levels in the run
     const int width_, height_, block_;
     const std::uint64_t per_angle_;
-    ZFrame z_, z_b_;  // B's volumes are raised by the level: they see the z frame as z_b_
+    ZFrame z_, z_b_;  // B's volumes are raised by the first level: they see the z frame as z_b_
     std::array<std::int64_t, 2> root_a_{}, root_b_{};
     std::vector<posemap::Trig> trig_;
 
