@@ -9,14 +9,14 @@
 // each pulled run only the rows that can reach one, and drops runs that reach none: the map is
 // then exact on those poses, the only ones read.
 //
-// One invocation handles one work item = (height, pulled run, chunk of the fixed runs at its key).
-// With several heights of B in one sweep run, B's runs come at its lowest height: raised by h more,
-// a run at slice z meets the fixed runs at z + h and sets the map of its angle at that height. The
-// host sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays
+// One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). With
+// several heights of B in one sweep run, B's runs come at its lowest height, each with the height
+// it is paired at: raised by h more, a run at slice z meets the fixed runs at z + h and sets the
+// map of its angle at that height. The host sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays
 // under lavapipe's per-invocation loop cap.
 layout(local_size_x_id = 0) in;
 
-// Pulled runs: y relative to fixed_y0 (16 bits, signed) | the heights it is paired at << 16,
+// Pulled runs: y relative to fixed_y0 (16 bits, signed) | the height it is paired at << 16,
 // x_first | x_last << 16 relative to pulled_x0, key, and the rows j the run is paired on (first |
 // last << 16), cut by the host to where poses are still in play.
 struct Run {
@@ -40,7 +40,6 @@ layout(set = 0, binding = 4) uniform usamplerBuffer map_texels;
 layout(push_constant) uniform Params {
     uint item_base;
     uint item_count;
-    uint run_count;  // pulled runs: the items are (height, run, chunk), height first
     int heights;
     int chunks, runs_per_chunk;
     int zbits, slot_count;
@@ -58,15 +57,11 @@ uint seen(uint w) { return w < params.texel_words ? texelFetch(map_texels, int(w
 void main() {
     uint item = params.item_base + gl_GlobalInvocationID.x;
     if (gl_GlobalInvocationID.x >= params.item_count) return;
-    // Height first: neighbouring items pair neighbouring runs (sorted by key) at one height, so they
-    // walk the same fixed runs.
-    uint per_height = params.run_count * uint(params.chunks);
-    int h = int(item / per_height);
-    uint rest = item % per_height;
-    Run b = pulled_runs[rest / uint(params.chunks)];
-    int chunk = int(rest % uint(params.chunks));
+    Run b = pulled_runs[item / uint(params.chunks)];
+    int chunk = int(item % uint(params.chunks));
+    int h = int(b.y_heights >> 16u);
     int z = b.key % params.zbits + h;
-    if (z >= params.zbits || ((b.y_heights >> (16 + h)) & 1u) == 0u) return;
+    if (z >= params.zbits) return;
     int b_y = int(b.y_heights << 16) >> 16;  // relative to fixed_y0
     int angle_slot = b.key / params.zbits;
     int slot = angle_slot % params.slot_count, angle = angle_slot / params.slot_count;

@@ -422,14 +422,14 @@ TEST(Sweep, HeightsShareTheFixedSide) {
     expect_identical(both);
     EXPECT_GT(both.gpu.solutions, 0u);
     EXPECT_GT(both.gpu.rejected[3], 0u);
-    std::map<int, std::uint64_t> pulled_runs;  // per heights_per_run
+    std::map<int, std::uint64_t> runs_cut;  // per heights_per_run
     for (const auto& options : {gpu::SweeperOptions{.pose_test_pairs = 1e12}, gpu::SweeperOptions{.pose_test_pairs = 1e12, .heights_per_run = 4},
                                 gpu::SweeperOptions{.pose_test_pairs = 1e12, .heights_per_run = 1}, gpu::SweeperOptions{.block = 3, .maps = false}}) {
         gpu::VulkanSweeper sweeper(test::context(), options);
         EXPECT_EQ(sweeper.sweep(problem).outcomes, both.reference.outcomes) << "maps " << options.maps << " heights " << options.heights_per_run;
         const std::uint64_t built = sweeper.last_stats().fixed_volumes_built;
-        const auto& runs = sweeper.last_stats().pulled_runs_per_stage;
-        if (options.maps) pulled_runs[options.heights_per_run] = std::accumulate(runs.begin(), runs.end(), std::uint64_t(0));
+        const auto& cut = sweeper.last_stats().runs_cut_per_stage;
+        if (options.maps) runs_cut[options.heights_per_run] = std::accumulate(cut.begin(), cut.end(), std::uint64_t(0));
         SweepProblem one = problem;
         std::uint64_t most_for_one = 0;
         for (int level = problem.range.z_first; level <= problem.range.z_last; ++level) {
@@ -444,8 +444,8 @@ TEST(Sweep, HeightsShareTheFixedSide) {
         EXPECT_EQ(built, most_for_one) << "A's volumes built once for the six heights, as for one";
         test::expect_no_validation_messages();
     }
-    EXPECT_LT(pulled_runs[16], pulled_runs[4]);
-    EXPECT_LT(pulled_runs[4], pulled_runs[1]);
+    EXPECT_LT(runs_cut[16], runs_cut[4]);
+    EXPECT_LT(runs_cut[4], runs_cut[1]);
 }
 
 // A solid block of poses is stored as tiles (a few bytes) and reads back pose for pose.

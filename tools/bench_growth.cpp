@@ -8,7 +8,7 @@
 //   build/tools/amhv_bench_growth --header
 //   build/tools/amhv_bench_growth --plot TABLE.csv OUT.png
 //
-// Per stage figures (seconds, poses, maps, pulled runs, run pairs, blocks, pose tests) go to stderr.
+// Per stage figures (seconds, poses, maps, runs cut, pulled runs, run pairs, blocks, pose tests) go to stderr.
 // For trying the sweeper's settings: AMHV_MAP_PASSES and AMHV_POSE_TEST_PAIRS set
 // SweeperOptions::map_passes and ::pose_test_pairs.
 #include <algorithm>
@@ -77,10 +77,10 @@ int measure(const std::string& scene_file, int segment, double voxel, double ste
     // Per stage, for reading where the time goes (stderr: the table stays one row).
     const char* names[] = {"contact", "dictionary", "fidelity", "visibility"};
     for (int k = 0; k < 4; ++k)
-        std::cerr << fmt::format("{:>10}: {:7.3f} s, {} poses, {} maps, {} pulled runs, {} run pairs, {} blocks, {} pose tests\n", names[k],
-                                 s.seconds_per_stage[std::size_t(k)], s.poses_per_stage[std::size_t(k)], s.maps_per_stage[std::size_t(k)],
-                                 s.pulled_runs_per_stage[std::size_t(k)], s.run_pairs_per_stage[std::size_t(k)], s.blocks_per_stage[std::size_t(k)],
-                                 s.pose_tests_per_stage[std::size_t(k)]);
+        std::cerr << fmt::format("{:>10}: {:7.3f} s, {} poses, {} maps, {} runs cut, {} pulled runs, {} run pairs, {} blocks, {} pose tests\n",
+                                 names[k], s.seconds_per_stage[std::size_t(k)], s.poses_per_stage[std::size_t(k)], s.maps_per_stage[std::size_t(k)],
+                                 s.runs_cut_per_stage[std::size_t(k)], s.pulled_runs_per_stage[std::size_t(k)], s.run_pairs_per_stage[std::size_t(k)],
+                                 s.blocks_per_stage[std::size_t(k)], s.pose_tests_per_stage[std::size_t(k)]);
     std::cerr << fmt::format("waiting for the device: {:.3f} s of {:.3f} s, {} submits\n", s.device_wait_seconds, sweep, s.submits);
     std::cout << fmt::format("{},{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{},{},{},{},{:.0f}\n", voxel, step, problem.range.size(),
                              result.solutions, mhv, sweep, s.seconds_per_stage[0], s.seconds_per_stage[1], s.seconds_per_stage[2],

@@ -65,7 +65,8 @@ struct SweepStats {
     std::array<std::uint64_t, 4> blocks_per_stage{};  // block pre-tests run
     std::array<std::uint64_t, 4> pose_tests_per_stage{};  // poses the block pre-test left undecided
     std::array<std::uint64_t, 4> maps_per_stage{};         // overlap maps computed (per batch and test)
-    std::array<std::uint64_t, 4> pulled_runs_per_stage{};  // slice runs of B mapped by overlap maps
+    std::array<std::uint64_t, 4> pulled_runs_per_stage{};  // slice runs of B mapped by overlap maps (once per height)
+    std::array<std::uint64_t, 4> runs_cut_per_stage{};     // slice runs of B the host cut for them, kept or not
     std::array<std::uint64_t, 4> run_pairs_per_stage{};    // pairs of fixed and pulled runs the maps visited
     std::uint64_t fixed_volumes_built = 0;  // A's column volumes, built once for every height (HeightShare)
 };

@@ -224,45 +224,39 @@ std::uint64_t pairs_on_rows(const FixedRuns& fixed, std::int32_t fixed_key, std:
     return std::uint64_t(to - from);
 }
 
-// The heights (a bit each) at which a run, paired on rows j0..j1 of the union of the heights'
-// poses in play, can set a bit of a pose in play at that height: where the fixed runs at its key
-// lifted by the height, moved by the run, hold one (their box; null `heights`: the one height).
-std::uint32_t heights_reached(const MapTest& test, const HeightsInPlay* heights, const SliceRun& run, std::int32_t fixed_key, int j0, int j1,
-                              std::int32_t i_first, std::int32_t j_first, int width) {
-    if (!heights) return 1u;
-    const std::int32_t zbits = test.runs().zbits;
-    std::uint32_t mask = 0;
-    for (int h = 0; h < int(heights->rows.size()) && fixed_key % zbits + h < zbits; ++h) {
-        const Band& rows = heights->rows[std::size_t(h)];
-        const auto& box = test.runs().key_boxes[std::size_t(fixed_key + h)];
-        if (box[0] > box[1]) continue;
-        const int r0 = std::max({rows[0], j0, box[2] - run.y - j_first}), r1 = std::min({rows[1], j1, box[3] - run.y - j_first});
-        const int c0 = std::max(rows[2], box[0] - run.x_last - i_first), c1 = std::min(rows[3], box[1] - run.x_first - i_first);
-        if (r0 > r1 || c0 > c1) continue;
-        if (heights->open && count_in_play(heights->counts[std::size_t(h)], std::size_t(width) + 1, c0, c1, r0, r1) == 0) continue;
-        mask |= 1u << h;
-    }
-    return mask;
+// A pruned run as the kernel reads it, paired at height h on rows j0..j1.
+PulledRun pulled_run(const MapTest& test, const SliceRun& run, int h, int j0, int j1) {
+    const std::int64_t y = std::int64_t(run.y) - test.fixed->y0;
+    if (y < -32768 || y > 32767)
+        fail("key segment", "B reaches {} rows from A's volume, more than the sweep handles (32,767); use a larger voxel", y);
+    const std::uint32_t x = std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16;
+    return {(std::uint32_t(y) & 0xffffu) | std::uint32_t(h) << 16, x, run.key, std::uint32_t(j0) | std::uint32_t(j1) << 16};
 }
 
-// prune_pulled_runs on one part's runs of a pass; the pairs are counted at each height the run is
-// paired at (a run at slice z meets the fixed runs at z + h).
-void prune_part(const MapTest& test, const RunsInPlay& in_play, const HeightsInPlay* heights, std::int32_t key_base, std::int32_t i_first,
-                std::int32_t j_first, int width, std::span<const SliceRun> runs, std::uint64_t& pairs, std::vector<PulledRun>& out) {
+// prune_pulled_runs on one part's runs of a pass. With one height, `in_play` gives each run's
+// band. With several, `in_play` (A lowered over the heights, against the poses in play at any)
+// drops the runs that reach none, and each height's own test (`at_height`: A's runs at the key
+// lifted by h, against that height's poses in play) gives the band at each height it reaches:
+// a run goes to the kernel once per such height (`out_by_height`), with the pairs counted there.
+void prune_part(const MapTest& test, const RunsInPlay& in_play, std::span<const RunsInPlay> at_height, std::int32_t key_base, std::int32_t j_first,
+                std::span<const SliceRun> runs, std::uint64_t& pairs, std::span<std::vector<PulledRun>* const> out_by_height) {
+    const std::int32_t zbits = test.runs().zbits;
     for (const SliceRun& run : runs) {
         const auto band = in_play.band(run);
         if (!band) continue;
-        const auto [j0, j1] = *band;
         const std::int32_t fixed_key = run.key - key_base;
-        const std::uint32_t mask = heights_reached(test, heights, run, fixed_key, j0, j1, i_first, j_first, width);
-        if (mask == 0) continue;
-        for (int h = 0; h < 16; ++h)
-            if ((mask >> h) & 1u) pairs += pairs_on_rows(test.runs(), fixed_key + h, run.y + j_first + j0, run.y + j_first + j1);
-        const std::int64_t y = std::int64_t(run.y) - test.fixed->y0;
-        if (y < -32768 || y > 32767)
-            fail("key segment", "B reaches {} rows from A's volume, more than the sweep handles (32,767); use a larger voxel", y);
-        const std::uint32_t x = std::uint32_t(run.x_first - test.pulled_x0) | std::uint32_t(run.x_last - test.pulled_x0) << 16;
-        out.push_back({(std::uint32_t(y) & 0xffffu) | mask << 16, x, run.key, std::uint32_t(j0) | std::uint32_t(j1) << 16});
+        if (at_height.empty()) {
+            pairs += pairs_on_rows(test.runs(), fixed_key, run.y + j_first + (*band)[0], run.y + j_first + (*band)[1]);
+            out_by_height[0]->push_back(pulled_run(test, run, 0, (*band)[0], (*band)[1]));
+            continue;
+        }
+        for (int h = 0; h < int(at_height.size()) && fixed_key % zbits + h < zbits; ++h) {
+            const auto reached = at_height[std::size_t(h)].band(run);
+            if (!reached) continue;
+            const auto [j0, j1] = *reached;
+            pairs += pairs_on_rows(test.runs(), fixed_key + h, run.y + j_first + j0, run.y + j_first + j1);
+            out_by_height[std::size_t(h)]->push_back(pulled_run(test, run, h, j0, j1));
+        }
     }
 }
 
@@ -328,8 +322,25 @@ std::uint64_t SweepRun::prune_pulled_runs(PulledPruner& pruner, const MapTest& t
     }
     const std::int32_t key_base = key_base_of(test, angle_in_batch);
     const RunsInPlay in_play(pruner, test.reach_runs(), rows, open != nullptr, key_base, range_.i_first, range_.j_first, width_);
-    for (const std::span<const SliceRun> runs : parts)
-        prune_part(test, in_play, heights, key_base, range_.i_first, range_.j_first, width_, runs, pairs, out);
+    // Each height's runs together, in key order: neighbouring items of the kernel walk the same keys.
+    thread_local std::vector<RunsInPlay> at_height;
+    thread_local std::vector<std::vector<PulledRun>> by_height;
+    thread_local std::vector<std::vector<PulledRun>*> targets;
+    at_height.clear();
+    targets.assign(1, &out);
+    if (heights) {
+        by_height.resize(std::size_t(heights_));
+        targets.clear();
+        for (int h = 0; h < heights_; ++h) {
+            at_height.emplace_back(heights->counts[std::size_t(h)], test.runs(), heights->rows[std::size_t(h)], heights->open, key_base - h,
+                                   range_.i_first, range_.j_first, width_);
+            by_height[std::size_t(h)].clear();
+            targets.push_back(&by_height[std::size_t(h)]);
+        }
+    }
+    for (const std::span<const SliceRun> runs : parts) prune_part(test, in_play, at_height, key_base, range_.j_first, runs, pairs, targets);
+    if (heights)
+        for (const auto& runs : by_height) out.insert(out.end(), runs.begin(), runs.end());
     return pairs;
 }
 
@@ -481,6 +492,7 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
             open_known = true;
         }
     }
+    for (int a = 0; a < batch_angles; ++a) tools_.stats.runs_cut_per_stage[std::size_t(stage)] += test.angles[std::size_t(a)].cut;
     return read_map(test, batch_angles);
 }
 
@@ -495,15 +507,14 @@ void SweepRun::dispatch_map_pass(MapTest& test, std::size_t run_count, int longe
             fail("key segment", "a run of {} voxels is longer than one invocation may handle; use a larger voxel", test.runs().longest + longest);
         const int runs_per_chunk = int((budget - search) / per_run);
         const int chunks = std::max(1, (test.runs().most_per_key + runs_per_chunk - 1) / runs_per_chunk);
-        // An item per height, pulled run and chunk: each height's key is its own search and walk.
-        const std::uint64_t items = std::uint64_t(heights_) * std::uint64_t(run_count) * std::uint64_t(chunks);
+        const std::uint64_t items = std::uint64_t(run_count) * std::uint64_t(chunks);
         if (items > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
             fail("sweep", "{} overlap-map work items in one batch are more than one dispatch takes; narrow the x/y range", items);
         set.emplace(tools_.map.bind(
             {test.fixed_side->packed.get(), test.fixed_side->keys.get(), &pulled_.device(), &map_words_.device(), &map_words_.device()}));
         // The words the maps' texel view covers (Kernel::bind cuts it to the device's limit).
         const std::uint32_t texel_words = std::uint32_t(std::min<std::uint64_t>(map_words_.device().size() / 4, tools_.context.selected().max_texel_buffer_elements));
-        const MapParams params{0, 0, std::uint32_t(run_count), heights_, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),
+        const MapParams params{0, 0, heights_, chunks, runs_per_chunk, test.runs().zbits, std::int32_t(test.slots.size()),
                                range_.i_first, range_.j_first, width_, height_, row_words_,
                                test.want == Want::Frames ? 1 : 0, std::int32_t(test.fixed->x0), std::int32_t(test.fixed->y0),
                                test.pulled_x0, texel_words};

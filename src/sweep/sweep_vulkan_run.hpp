@@ -43,8 +43,7 @@ static_assert(sizeof(OverlapParams) <= 128, "push constants beyond the guarantee
 
 struct MapParams {
     std::uint32_t item_base, item_count;
-    std::uint32_t run_count;  // pulled runs; the items are (height, run, chunk), height first
-    std::int32_t heights;     // the run's heights: a pulled run at slice z meets the fixed runs at z + h
+    std::int32_t heights;  // the run's heights: a pulled run at slice z and height h meets the fixed runs at z + h
     std::int32_t chunks, runs_per_chunk;
     std::int32_t zbits, slot_count;
     std::int32_t range_i0, range_j0, range_ni, range_nj, row_words;
@@ -55,8 +54,8 @@ struct MapParams {
 static_assert(sizeof(MapParams) <= 128, "push constants beyond the guaranteed 128 bytes");
 
 // A pulled run as the map kernel reads it: y relative to the fixed volume's y0 (16 bits, signed)
-// with the heights it is paired at (a bit each, from bit 16), x packed relative to the batch's
-// pulled_x0, and the rows j (first | last << 16) it is paired on.
+// | the height it is paired at << 16, x packed relative to the batch's pulled_x0, and the rows j
+// (first | last << 16) it is paired on.
 struct PulledRun {
     std::uint32_t y_heights;
     std::uint32_t x;
@@ -230,9 +229,9 @@ struct PulledPruner {
     std::vector<std::uint32_t> prefix;  // (height + 1) x (width + 1) counts of poses in play
 };
 
-// With several heights: per height of one angle, its poses in play counted (null: every pose of
-// its box is) and their box. The prune pairs a run only at the heights where the fixed runs at its
-// lifted key, moved by the run, hold a pose in play.
+// With several heights: per height of one angle, its poses in play counted (`open` false: every
+// pose of its box is) and their box. The prune pairs a run at each height where the fixed runs at
+// its lifted key, moved by the run, reach a pose in play, on the rows where they do.
 struct HeightsInPlay {
     std::vector<PulledPruner> counts;
     std::vector<Band> rows;
