@@ -184,13 +184,15 @@ public:
 
     // The band [j0, j1] of rows (relative to j_first) the run reaches, or nothing; with
     // `box_only`, the band of its key's box when that box, moved by the run, holds a pose in play
-    // (a cheap test that drops most runs; the passes' pruning narrows the rest).
-    std::optional<std::array<int, 2>> band(const SliceRun& run, bool box_only = false) const {
+    // (a cheap test that drops most runs; the passes' pruning narrows the rest). Only rows within
+    // `within` are looked at (a band known to hold every row the run reaches).
+    std::optional<std::array<int, 2>> band(const SliceRun& run, bool box_only = false,
+                                           std::array<int, 2> within = {std::numeric_limits<int>::min(), std::numeric_limits<int>::max()}) const {
         const std::int32_t fixed_key = run.key - key_base_;
         const auto& box = fixed_.key_boxes[std::size_t(fixed_key)];
         if (box[0] > box[1]) return std::nullopt;
         // A pair with fixed run (y_a, [xa0, xa1]) sets row j = y_a - y - j_first, offsets xa0 - x_last .. xa1 - x_first.
-        int j0 = std::max(rows_[0], box[2] - run.y - j_first_), j1 = std::min(rows_[1], box[3] - run.y - j_first_);
+        int j0 = std::max({rows_[0], within[0], box[2] - run.y - j_first_}), j1 = std::min({rows_[1], within[1], box[3] - run.y - j_first_});
         if (j0 > j1) return std::nullopt;
         if (!open_) return std::array<int, 2>{j0, j1};
         const int i0 = std::max(rows_[2], box[0] - run.x_last - i_first_), i1 = std::min(rows_[3], box[1] - run.x_first - i_first_);
@@ -250,8 +252,10 @@ void prune_part(const MapTest& test, const RunsInPlay& in_play, std::span<const 
             out_by_height[0]->push_back(pulled_run(test, run, 0, (*band)[0], (*band)[1]));
             continue;
         }
+        // A lifted key's runs lie within the lowered union's, and a height's poses in play within
+        // those at any height: the run reaches rows of `band` only.
         for (int h = 0; h < int(at_height.size()) && fixed_key % zbits + h < zbits; ++h) {
-            const auto reached = at_height[std::size_t(h)].band(run);
+            const auto reached = at_height[std::size_t(h)].band(run, false, *band);
             if (!reached) continue;
             const auto [j0, j1] = *reached;
             pairs += pairs_on_rows(test.runs(), fixed_key + h, run.y + j_first + j0, run.y + j_first + j1);
