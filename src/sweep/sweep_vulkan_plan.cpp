@@ -266,7 +266,9 @@ void SweepRun::cut_map_volumes(const std::vector<MapTest*>& tests) {
     }
     parallel_for(first_reaches.size(), [&](std::size_t k) {
         MapTest& test = *first_reaches[k];
-        test.fixed_side->reach_by_heights[heights_] = fixed_runs(lowered_union(*test.fixed, heights_), test.slots);
+        FixedRuns reach = fixed_runs(lowered_union(*test.fixed, heights_), test.slots);
+        reach.runs = {};  // the prune reads its boxes and hulls only
+        test.fixed_side->reach_by_heights[heights_] = std::move(reach);
     });
     parallel_for(tests.size(), [&](std::size_t k) {
         tests[k]->moving_words = sparse_columns(*tests[k]->moving, tests[k]->slots);

@@ -121,7 +121,7 @@ struct FixedSide {
     std::unique_ptr<Buffer> packed, keys;
     // Per count of heights above one: the runs of lowered_union(volume, heights), which one prune
     // of B's runs reads for every height of a run (a run reaches a pose at some height exactly
-    // when it reaches it in these).
+    // when it reaches it in these). Their boxes and hulls only: the runs themselves are dropped.
     std::map<int, FixedRuns> reach_by_heights;
 };
 
