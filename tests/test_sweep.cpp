@@ -673,6 +673,14 @@ TEST(Sweep, WorkSplittingMatchesReference) {
             EXPECT_GT(loose.gpu.solutions, both.gpu.solutions);
             gpu::VulkanSweeper tiny(test::context(), {.loop_budget = 200, .block = 2, .maps = false});
             EXPECT_EQ(tiny.sweep(problem).outcomes, loose.reference.outcomes);
+            // The three heights by maps in tiny items, and with the maps' bytes of a batch too few
+            // for one angle's maps at every height (the heights then go in smaller runs).
+            for (const std::uint64_t map_bytes : {std::uint64_t(64) << 20, std::uint64_t(1) << 18}) {
+                gpu::VulkanSweeper mapped(test::context(), {.max_poses_per_batch = 5000, .angles_per_core_round = 1, .loop_budget = 200,
+                                                            .pose_test_pairs = 1e12, .max_map_bytes = map_bytes});
+                EXPECT_EQ(mapped.sweep(problem).outcomes, loose.reference.outcomes) << map_bytes;
+                test::expect_no_validation_messages();
+            }
         }
     }
 }

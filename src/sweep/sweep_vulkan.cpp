@@ -36,7 +36,7 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     validate(problem);
     stats_ = {};
     const PoseRange& r = problem.range;
-    const int group = SweepRun::heights_in_one(options_) ? std::min({r.depth(), options_.heights_per_run, SweepRun::kMaxHeights}) : 1;
+    const int group = heights_per_run(problem);
     if (group == r.depth()) {  // one run: its outcomes are the result (no second copy)
         HeightShare share;
         SweepResult result =
@@ -60,6 +60,19 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
     }
     result.count();
     return result;
+}
+
+// Heights in one run: as many as the options allow and an angle's maps at every height fit a
+// batch (a test has at most one map per frame; those of one angle cannot be split).
+int VulkanSweeper::heights_per_run(const SweepProblem& problem) const {
+    if (!SweepRun::heights_in_one(options_)) return 1;
+    const PoseRange& r = problem.range;
+    const std::uint64_t per_height =
+        std::uint64_t(std::max(1, problem.frames())) * std::uint64_t(std::max(1, r.height())) * std::uint64_t((std::max(1, r.width()) + 31) / 32) * 4;
+    const std::uint64_t max_bytes = std::min<std::uint64_t>(options_.max_map_bytes, context_.selected().max_storage_buffer_range);
+    const std::uint64_t fitting = std::max<std::uint64_t>(1, max_bytes / per_height);
+    return int(std::min<std::uint64_t>({std::uint64_t(r.depth()), std::uint64_t(std::max(1, options_.heights_per_run)),
+                                        std::uint64_t(SweepRun::kMaxHeights), fitting}));
 }
 
 namespace sweep_detail {

@@ -88,6 +88,8 @@ public:
 private:
     // `kernels`: sweep_overlap.comp, then sweep_map.comp, built (make_kernels).
     VulkanSweeper(Context& context, SweeperOptions options, std::vector<Kernel> kernels);
+    // How many heights of `problem` one SweepRun sweeps together.
+    int heights_per_run(const SweepProblem& problem) const;
 
     Context& context_;
     SweeperOptions options_;
