@@ -67,8 +67,8 @@ SweepResult VulkanSweeper::sweep(const SweepProblem& problem) {
 int VulkanSweeper::heights_per_run(const SweepProblem& problem) const {
     if (!SweepRun::heights_in_one(options_)) return 1;
     const PoseRange& r = problem.range;
-    const std::uint64_t per_height =
-        std::uint64_t(std::max(1, problem.frames())) * std::uint64_t(std::max(1, r.height())) * std::uint64_t((std::max(1, r.width()) + 31) / 32) * 4;
+    const std::uint64_t row_bytes = std::uint64_t((std::max(1, r.width()) + 31) / 32) * 4;
+    const std::uint64_t per_height = std::uint64_t(std::max(1, problem.frames())) * std::uint64_t(std::max(1, r.height())) * row_bytes;
     const std::uint64_t max_bytes = std::min<std::uint64_t>(options_.max_map_bytes, context_.selected().max_storage_buffer_range);
     const std::uint64_t fitting = std::max<std::uint64_t>(1, max_bytes / per_height);
     return int(std::min<std::uint64_t>({std::uint64_t(r.depth()), std::uint64_t(std::max(1, options_.heights_per_run)),
