@@ -12,8 +12,8 @@
 // One invocation handles one work item = (pulled run, chunk of the fixed runs at its key). With
 // several heights of B in one sweep run, B's runs come at its lowest height, each with the height
 // it is paired at: raised by h more, a run at slice z meets the fixed runs at z + h and sets the
-// map of its angle at that height. The host sizes the chunks so that a binary search plus runs * (words an interval spans + 4) stays
-// under lavapipe's per-invocation loop cap.
+// map of its angle at that height. The host sizes the chunks so that a binary search plus runs *
+// (words an interval spans + 4) stays under lavapipe's per-invocation loop cap.
 layout(local_size_x_id = 0) in;
 
 // Pulled runs: y relative to fixed_y0 (16 bits, signed) | the height it is paired at << 16,
