@@ -26,6 +26,7 @@
 #include "src/edit/frame_check.hpp"
 #include "src/edit/timeline.hpp"
 #include "host/reference/voxelise_reference.hpp"
+#include "src/voxelise/voxelise_vulkan.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 #include "support.hpp"
@@ -758,6 +759,33 @@ TEST(Edit, ThePagePlaysTheSceneAndPlotsTheGroupInABrowser) {
 
 namespace amhv {
 namespace {
+
+// A frame's root is the mean of its voxels' centres on the grid covering that frame alone: the
+// same bits whatever frames it is computed with (the roots go 32 frames at a time, stacked), on
+// both backends, and within rounding of the centres summed one by one. 43 frames of the demo's A:
+// two words.
+TEST(Edit, AFrameRootIsTheFramesOwn) {
+    const Scene scene = load_scene(test::source_dir() / "data/scenes/demo.toml");
+    ObjectSource a(scene.a);
+    ReferenceVoxeliser reference;
+    gpu::VulkanVoxeliser vulkan(test::context());
+    const double voxel = scene.sampling.voxel;
+    std::vector<int> numbers;
+    for (int f = 1; f <= 301; f += 7) numbers.push_back(f);
+    const std::vector<Eigen::Vector2d> roots = frame_roots(a, numbers, voxel, reference);
+    const std::vector<Eigen::Vector2d> on_vulkan = frame_roots(a, numbers, voxel, vulkan);
+    test::expect_no_validation_messages();
+    for (std::size_t i = 0; i < numbers.size(); ++i) EXPECT_EQ(on_vulkan[i], roots[i]) << "frame " << numbers[i];
+    for (std::size_t i : {std::size_t(3), std::size_t(33)}) {
+        EXPECT_EQ(frame_roots(a, {numbers[i]}, voxel, reference).at(0), roots[i]) << "frame " << numbers[i];
+        MeshFrame frame;
+        for (const BodyPart& part : a.frame_parts(numbers[i])) frame.mesh.append(part.mesh);
+        const Amhv alone = voxelise(prepare_voxelisation({&frame}, grid_covering(frame.mesh.bounds(), voxel, "frame")), reference);
+        const Vec3 summed = occupied_root(alone);
+        EXPECT_NEAR(summed.x(), roots[i].x(), 1e-12) << "frame " << numbers[i];
+        EXPECT_NEAR(summed.y(), roots[i].y(), 1e-12) << "frame " << numbers[i];
+    }
+}
 
 // The gap's nearest pair of voxel centres (a k-d tree on the smaller side, built on the points that
 // can beat a first answer, asked nearest-box first with early stops) against brute force: bodies

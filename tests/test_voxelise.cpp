@@ -398,6 +398,54 @@ TEST(Voxelise, InPlaceAndCopiedMasksMatchReference) {
     EXPECT_GT(occupied(expected), 10000u);
 }
 
+// Frames stacked (prepare_voxelisation_stacked): each on its own grid, laid at one corner. The
+// frames lie metres apart, and 40 of them take two occupancy words; a small buffer budget splits
+// the grid into slabs. Each frame's bits are its voxels on its own grid alone, on both backends.
+TEST(Voxelise, StackedFramesAreEachFramesOwnVoxels) {
+    std::vector<MeshFrame> frames;
+    std::vector<VoxelGrid> grids;
+    for (int f = 0; f < 40; ++f) {
+        const Vec3 at(0.37 * f, -0.21 * f, 0.05 * (f % 3));
+        TriangleMesh mesh = shapes::capsule(at + Vec3(0.1, 0.2, 0.1), at + Vec3(0.6, 0.5 - 0.005 * f, 0.9), 0.12, 12, 16);
+        mesh.append(shapes::sphere(at + Vec3(0.5, 0.2 + 0.01 * f, 0.4), 0.2 + 0.002 * f, 16, 24));
+        grids.push_back(grid_covering(mesh.bounds(), 0.006, "frame"));
+        frames.push_back({std::move(mesh), fmt::format("frame {}", f)});
+    }
+    std::vector<const MeshFrame*> pointers;
+    for (const MeshFrame& frame : frames) pointers.push_back(&frame);
+    const VoxelisationInput input = prepare_voxelisation_stacked(pointers, grids);
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+        int largest = 0;
+        for (const VoxelGrid& grid : grids) largest = std::max(largest, grid.dims[axis]);
+        EXPECT_EQ(input.grid.dims[axis], largest);
+    }
+    for (std::uint64_t budget : {std::uint64_t(0), std::uint64_t(1) << 20}) {
+        const Both both = voxelise_both(input, budget);
+        expect_identical(both);
+        if (budget) {
+            EXPECT_GT(both.plan.slabs, 2);
+        }
+    }
+    ReferenceVoxeliser reference;
+    const Amhv stacked = voxelise(input, reference);
+    for (int f : {0, 17, 31, 32, 39}) {
+        const Amhv alone = voxelise(prepare_voxelisation({pointers[std::size_t(f)]}, grids[std::size_t(f)]), reference);
+        const VoxelGrid& own = grids[std::size_t(f)];
+        std::size_t differing = 0, occupied_alone = 0;
+        for (int z = 0; z < input.grid.dims[2]; ++z)
+            for (int y = 0; y < input.grid.dims[1]; ++y)
+                for (int x = 0; x < input.grid.dims[0]; ++x) {
+                    const bool inside = x < own.dims[0] && y < own.dims[1] && z < own.dims[2];
+                    const bool expected = inside && alone.word(0, own.index(x, y, z)) & 1u;
+                    const bool got = stacked.word(f / 32, input.grid.index(x, y, z)) >> (f % 32) & 1u;
+                    differing += expected != got;
+                    occupied_alone += expected;
+                }
+        EXPECT_EQ(differing, 0u) << "frame " << f;
+        EXPECT_GT(occupied_alone, 1000u) << "frame " << f;
+    }
+}
+
 // Shapes that force every split: a tiny buffer budget makes many z slabs and several batches per
 // occupancy word; a 1.6 m box at 5 mm covers 320 x 320 = 102,400 columns with each of its faces
 // (more than one invocation may loop over on lavapipe); 40 frames need two occupancy words.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -65,60 +66,70 @@ TriangleMesh placed_mesh(const EditResult& edit, int k, int object, ObjectSource
     return placed_mesh(edit.frames[std::size_t(object)][std::size_t(k)], source);
 }
 
-// Per frame f (bit f of the volume's one word), the sum of its voxels' centres (x, y) in (z, y, x)
-// order over the occupied voxels `slices`, and their count. The frames go to the cores in groups,
-// each group's sums in that same order: the same bits as one pass.
-void sum_frame_centres(const Amhv& volume, const std::vector<std::vector<std::uint32_t>>& slices, std::size_t count,
-                       std::vector<Eigen::Vector2d>& sum, std::vector<std::size_t>& occupied) {
+// Per frame f (bit f of the volume's one word): its voxels' count and the sums of their x and y
+// indices. Integers, so the layers' shares on the cores add up to the same sums in any order.
+struct IndexSums {
+    std::int64_t x = 0, y = 0, count = 0;
+};
+
+std::vector<IndexSums> sum_frame_indices(const Amhv& volume, std::size_t count) {
     const VoxelGrid& grid = volume.grid();
-    const std::size_t groups = std::min<std::size_t>(count, core_count());
-    parallel_for(groups, [&](std::size_t g) {
-        const std::size_t first = g * count / groups, last = (g + 1) * count / groups;
-        const std::uint32_t group_bits = std::uint32_t(((std::uint64_t(1) << last) - 1) & ~((std::uint64_t(1) << first) - 1));
-        // Local sums: neighbouring groups' entries share cache lines.
-        std::array<Eigen::Vector2d, 32> local_sum;
-        local_sum.fill(Eigen::Vector2d::Zero());
-        std::array<std::size_t, 32> local_count{};
-        for (std::size_t z = 0; z < slices.size(); ++z)
-            for (const std::uint32_t v : slices[z]) {
-                std::uint32_t bits = volume.word(0, z * std::size_t(grid.dims[0]) * std::size_t(grid.dims[1]) + v) & group_bits;
-                if (!bits) continue;
-                const Vec3 c = grid.centre(int(v % std::uint32_t(grid.dims[0])), int(v / std::uint32_t(grid.dims[0])), int(z));
-                for (; bits; bits &= bits - 1) {
-                    const int f = std::countr_zero(bits);
-                    local_sum[std::size_t(f)] += Eigen::Vector2d(c.x(), c.y());
-                    ++local_count[std::size_t(f)];
+    const std::size_t nx = std::size_t(grid.dims[0]), ny = std::size_t(grid.dims[1]), layers = std::size_t(grid.dims[2]);
+    const std::size_t parts = std::min<std::size_t>(layers, 4 * core_count());
+    std::vector<std::array<IndexSums, 32>> partial(parts);
+    parallel_for(parts, [&](std::size_t p) {
+        std::array<IndexSums, 32>& sums = partial[p];
+        for (std::size_t z = p * layers / parts; z < (p + 1) * layers / parts; ++z)
+            for (std::size_t y = 0; y < ny; ++y) {
+                const std::uint32_t* row = volume.plane(0) + (z * ny + y) * nx;
+                for (std::size_t x = 0; x < nx; ++x) {
+                    // A body fills a small part of its grid: eight empty voxels at once.
+                    if ((x & 7) == 0 && x + 8 <= nx && eight_words_zero(row + x)) {
+                        x += 7;
+                        continue;
+                    }
+                    for (std::uint32_t bits = row[x]; bits; bits &= bits - 1) {
+                        IndexSums& s = sums[std::size_t(std::countr_zero(bits))];
+                        s.x += std::int64_t(x), s.y += std::int64_t(y), ++s.count;
+                    }
                 }
             }
-        for (std::size_t f = first; f < last; ++f) sum[f] = local_sum[f], occupied[f] = local_count[f];
     });
+    std::vector<IndexSums> total(count);
+    for (const auto& sums : partial)
+        for (std::size_t f = 0; f < count; ++f) total[f].x += sums[f].x, total[f].y += sums[f].y, total[f].count += sums[f].count;
+    return total;
 }
 
 std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector<int>& numbers, double voxel, Voxeliser& voxeliser) {
-    // Frames are voxelised 32 at a time (one word of the mask) on a grid covering just those frames.
+    // A frame's root is the mean of its voxels' centres on the grid covering that frame alone: a
+    // property of the frame, whatever frames it is computed with. Frames go 32 at a time (one word
+    // of the mask), stacked in a grid the size of the largest frame's (prepare_voxelisation_stacked),
+    // not one covering the 32 frames' walk (at 5 mm, a seventh of the voxels).
     std::vector<Eigen::Vector2d> roots(numbers.size());
     const Voxeliser::ScratchHold hold(voxeliser);
     for (std::size_t first = 0; first < numbers.size(); first += 32) {
         const std::size_t count = std::min<std::size_t>(32, numbers.size() - first);
         std::vector<MeshFrame> merged(count);
         std::vector<const MeshFrame*> pointers;
-        Box3 bounds;
+        std::vector<VoxelGrid> grids;
         for (std::size_t f = 0; f < count; ++f) {
             const int number = numbers[first + f];
             for (const BodyPart& part : object.frame_parts(number)) merged[f].mesh.append(part.mesh);
             merged[f].source = fmt::format("object {} frame {}", object.spec().name, number);
-            bounds.extend(merged[f].mesh.bounds());
+            grids.push_back(grid_covering(merged[f].mesh.bounds(), voxel, merged[f].source));
             pointers.push_back(&merged[f]);
         }
-        const VoxelGrid grid = grid_covering(bounds, voxel, fmt::format("object {} frames {}..{}", object.spec().name, numbers[first],
-                                                                         numbers[first + count - 1]));
-        const Amhv volume = voxelise(prepare_voxelisation(pointers, grid), voxeliser);
-        std::vector<Eigen::Vector2d> sum(count, Eigen::Vector2d::Zero());
-        std::vector<std::size_t> occupied(count, 0);
-        sum_frame_centres(volume, occupied_by_slice(volume), count, sum, occupied);
+        const Amhv volume = voxelise(prepare_voxelisation_stacked(pointers, grids), voxeliser);
+        const std::vector<IndexSums> sums = sum_frame_indices(volume, count);
         for (std::size_t f = 0; f < count; ++f) {
-            if (occupied[f] == 0) fail(merged[f].source, "occupies no voxel of {} m: the root is undefined", voxel);
-            roots[first + f] = sum[f] / double(occupied[f]);
+            const IndexSums& s = sums[f];
+            if (s.count == 0) fail(merged[f].source, "occupies no voxel of {} m: the root is undefined", voxel);
+            // The mean of the voxels' lattice indices, then its voxel's centre.
+            const std::array<std::int64_t, 3> lattice = grids[f].lattice_origin();
+            const double n = double(s.count);
+            roots[first + f] = Eigen::Vector2d((double(lattice[0] * s.count + s.x) / n + 0.5) * voxel,
+                                               (double(lattice[1] * s.count + s.y) / n + 0.5) * voxel);
         }
     }
     return roots;

@@ -1,5 +1,6 @@
 #include "src/voxelise/voxelise.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <spdlog/spdlog.h>
@@ -42,6 +43,19 @@ VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& fram
     input.grid = grid;
     input.frames.resize(frames.size());
     parallel_for(frames.size(), [&](std::size_t f) { prepare_frame(*frames[f], grid, input.frames[f]); });
+    return input;
+}
+
+VoxelisationInput prepare_voxelisation_stacked(const std::vector<const MeshFrame*>& frames, const std::vector<VoxelGrid>& grids) {
+    if (frames.size() != grids.size() || frames.empty()) fail("voxelisation", "internal: {} frames stacked on {} grids", frames.size(), grids.size());
+    VoxelisationInput input;
+    input.grid.voxel = grids.front().voxel;
+    for (const VoxelGrid& grid : grids) {
+        if (grid.voxel != input.grid.voxel) fail(frames.front()->source, "internal: stacked grids of different voxel edges");
+        for (std::size_t axis = 0; axis < 3; ++axis) input.grid.dims[axis] = std::max(input.grid.dims[axis], grid.dims[axis]);
+    }
+    input.frames.resize(frames.size());
+    parallel_for(frames.size(), [&](std::size_t f) { prepare_frame(*frames[f], grids[f], input.frames[f]); });
     return input;
 }
 

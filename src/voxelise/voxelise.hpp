@@ -30,6 +30,11 @@ fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid);
 
 // Quantises `frames` into `grid` (which must contain them) and classifies each as closed or open.
 VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& frames, const VoxelGrid& grid);
+// Frames stacked: frame f quantised on grids[f] (its own grid, of one voxel edge for all) and laid
+// in one grid as large as the largest, with grids[f]'s corner at the grid's corner. A frame's voxel
+// (x, y, z) there is its voxel (x, y, z) on grids[f], so frames far apart share one frame's grid
+// instead of a grid covering them all. The stacked grid's origin is zero: its positions are local.
+VoxelisationInput prepare_voxelisation_stacked(const std::vector<const MeshFrame*>& frames, const std::vector<VoxelGrid>& grids);
 // Every frame of `sequence` in the grid of edge `voxel` covering it (grid_covering).
 VoxelisationInput prepare_voxelisation(const MeshSequence& sequence, double voxel);
 
