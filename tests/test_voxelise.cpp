@@ -1,5 +1,6 @@
 // The GPU voxeliser against the plain CPU reference, bit for bit, and both against geometry.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -396,6 +397,49 @@ TEST(Voxelise, InPlaceAndCopiedMasksMatchReference) {
             expect_identical(both);
         }
     EXPECT_GT(occupied(expected), 10000u);
+}
+
+// A column window: the whole volume's voxels in its columns, none outside, on both backends. Frames
+// with small triangles (coverage masks), a box whose faces make rows of runs, one open frame (the
+// surface rule), 40 frames (two words); windows inside, on the grid's edges, one column wide, empty;
+// a small buffer budget (slabs and batches) too.
+TEST(Voxelise, ColumnWindowIsTheWholeVolumeCropped) {
+    std::vector<TriangleMesh> meshes;
+    for (int f = 0; f < 40; ++f) {
+        TriangleMesh frame = shapes::box({0.0, 0.0, 0.0}, {0.9, 0.7, 0.05 + 0.002 * f});
+        frame.append(shapes::sphere({0.3 + 0.01 * f, 0.35, 0.3}, 0.15, 16, 24));
+        frame.append(shapes::torus({0.6, 0.3 + 0.005 * f, 0.4}, 0.2, 0.06, 24, 12));
+        meshes.push_back(frame);
+    }
+    meshes[7].triangles.resize(meshes[7].triangles.size() - 5);  // open: the surface rule
+    VoxelisationInput input = prepare_voxelisation(sequence_of(meshes), 0.005);
+    ASSERT_FALSE(input.frames[7].closed);
+    ReferenceVoxeliser reference;
+    const Amhv whole = voxelise(input, reference);
+    const auto& dims = input.grid.dims;
+    for (const ColumnWindow window : {ColumnWindow{40, 30, 121, 97}, ColumnWindow{0, 0, 75, dims[1] - 1},
+                                      ColumnWindow{90, 50, dims[0] - 1, dims[1] - 1}, ColumnWindow{61, 70, 61, 70}, ColumnWindow{}}) {
+        input.window = window;
+        for (std::uint64_t budget : {std::uint64_t(0), std::uint64_t(2) << 20}) {
+            const Both both = voxelise_both(input, budget);
+            expect_identical(both);
+        }
+        const Amhv cropped = voxelise(input, reference);
+        std::size_t differing = 0, occupied_inside = 0;
+        for (int w = 0; w < whole.words(); ++w)
+            for (int z = 0; z < dims[2]; ++z)
+                for (int y = 0; y < dims[1]; ++y)
+                    for (int x = 0; x < dims[0]; ++x) {
+                        const std::size_t v = input.grid.index(x, y, z);
+                        const std::uint32_t expected = window.contains(x, y) ? whole.word(w, v) : 0u;
+                        differing += cropped.word(w, v) != expected;
+                        occupied_inside += std::popcount(expected);
+                    }
+        EXPECT_EQ(differing, 0u) << "window " << window.x0 << ".." << window.x1 << " x " << window.y0 << ".." << window.y1;
+        if (window.x0 <= window.x1) {
+            EXPECT_GT(occupied_inside, 0u);
+        }
+    }
 }
 
 // Frames stacked (prepare_voxelisation_stacked): each on its own grid, laid at one corner. The

@@ -7,6 +7,7 @@ namespace amhv {
 void ReferenceVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& out) {
     const auto& grid = input.grid;
     const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
+    const ColumnWindow window = input.columns();
     struct Crossing {
         std::int64_t first_above;
         int winding_change;
@@ -20,8 +21,8 @@ void ReferenceVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& ou
         for (const auto& triangle : frame.triangles) {
             fixed::Oriented t;
             if (!fixed::orient(triangle, t)) continue;
-            for (int y = std::max(t.columns_y.first, 0); y <= std::min(t.columns_y.last, ny - 1); ++y)
-                for (int x = std::max(t.columns_x.first, 0); x <= std::min(t.columns_x.last, nx - 1); ++x) {
+            for (int y = std::max(t.columns_y.first, window.y0); y <= std::min(t.columns_y.last, window.y1); ++y)
+                for (int x = std::max(t.columns_x.first, window.x0); x <= std::min(t.columns_x.last, window.x1); ++x) {
                     std::int64_t first_above;
                     if (fixed::column_crossing(t, x, y, first_above))
                         columns[std::size_t(y) * nx + x].push_back({first_above, t.winding_change});

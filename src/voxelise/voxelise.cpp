@@ -89,7 +89,7 @@ bool triangle_touches_box(const Vec3 (&tri)[3], const Vec3& centre, double half)
 
 }  // namespace
 
-void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out) {
+void voxelise_surface(const PreparedFrame& frame, int frame_index, const ColumnWindow& columns, Amhv& out) {
     const auto& dims = out.grid().dims;
     const double scale = 1.0 / double(fixed::kSubvoxel);
     for (const auto& t : frame.triangles) {
@@ -102,6 +102,8 @@ void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out) {
             first[a] = std::max(0, int(std::floor(lo[a])) - 1);
             last[a] = std::min(dims[a] - 1, int(std::floor(hi[a])));
         }
+        first[0] = std::max(first[0], columns.x0), last[0] = std::min(last[0], columns.x1);
+        first[1] = std::max(first[1], columns.y0), last[1] = std::min(last[1], columns.y1);
         for (int z = first[2]; z <= last[2]; ++z)
             for (int y = first[1]; y <= last[1]; ++y)
                 for (int x = first[0]; x <= last[0]; ++x)
@@ -111,12 +113,15 @@ void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out) {
 }
 
 Amhv voxelise(const VoxelisationInput& input, Voxeliser& backend, VoxeliseReport* report) {
+    if (const ColumnWindow w = input.columns(); w.x0 < 0 || w.y0 < 0 || w.x1 >= input.grid.dims[0] || w.y1 >= input.grid.dims[1])
+        fail("voxelisation", "internal: columns {}..{} x {}..{} outside the {} x {} grid", w.x0, w.x1, w.y0, w.y1, input.grid.dims[0],
+             input.grid.dims[1]);
     Amhv volume(input.grid, int(input.frames.size()));
     backend.voxelise_solid(input, volume);
     for (std::size_t f = 0; f < input.frames.size(); ++f) {
         if (input.frames[f].closed) continue;
         spdlog::warn("{}: mesh is not closed; frame {} uses the conservative surface voxelisation", input.frames[f].source, f);
-        voxelise_surface(input.frames[f], int(f), volume);
+        voxelise_surface(input.frames[f], int(f), input.columns(), volume);
         if (report) report->open_frames.push_back(int(f));
     }
     return volume;

@@ -6,6 +6,7 @@
 // non-zero winding rule; open frames get the conservative surface rule on the host, the same for
 // every backend, so both backends always produce identical volumes.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,9 +22,20 @@ struct PreparedFrame {
     std::string source;
 };
 
+// The voxel columns x0..x1, y0..y1 of a grid.
+struct ColumnWindow {
+    int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+    bool contains(int x, int y) const { return x >= x0 && x <= x1 && y >= y0 && y <= y1; }
+};
+
 struct VoxelisationInput {
     VoxelGrid grid;
     std::vector<PreparedFrame> frames;
+    // Only these columns are voxelised, the others left empty: a column's voxels depend on the
+    // surface's crossings with that column alone, so a window's are those of the whole volume.
+    // Unset: every column.
+    std::optional<ColumnWindow> window;
+    ColumnWindow columns() const { return window ? *window : ColumnWindow{0, 0, grid.dims[0] - 1, grid.dims[1] - 1}; }
 };
 
 fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid);
@@ -72,8 +84,9 @@ private:
     int holds_ = 0;
 };
 
-// Conservative surface voxelisation of one frame: every voxel whose cube touches a triangle.
-void voxelise_surface(const PreparedFrame& frame, int frame_index, Amhv& out);
+// Conservative surface voxelisation of one frame: every voxel whose cube touches a triangle (in the
+// input's columns).
+void voxelise_surface(const PreparedFrame& frame, int frame_index, const ColumnWindow& columns, Amhv& out);
 
 struct VoxeliseReport {
     std::vector<int> open_frames;  // frames voxelised by the surface rule

@@ -80,8 +80,9 @@ std::vector<Binding> column_bindings() {
 struct VulkanVoxeliser::HostScratch {
     std::vector<FramePlan> frame_plans;
     std::vector<std::int32_t> room_edges;
+    std::vector<std::int32_t> row_last_room;  // per frame of the batch and row: its last column's room
     std::uint64_t bytes() const {
-        std::uint64_t total = room_edges.capacity() * sizeof(std::int32_t);
+        std::uint64_t total = (room_edges.capacity() + row_last_room.capacity()) * sizeof(std::int32_t);
         for (const FramePlan& plan : frame_plans)
             total += plan.crossables.capacity() * sizeof(Crossable) + plan.rows.capacity() * sizeof(RowSpan);
         return total;
@@ -134,6 +135,7 @@ private:
     void prepare_buffers();
     Batch batch_at(int first, int word_last) const;
     std::uint32_t gather(int batch_first, int batch_frames);
+    std::uint32_t coverage_in_window(const Crossable& crossable) const;
     void bucket_starts(int batch_first, int batch_frames, int slab_layers);
     bool dispatch_batch(Buffer& mask, int batch_first, int batch_frames, int word_first, int word_last, int z_begin, int slab_layers,
                         std::uint32_t mask_base);
@@ -146,6 +148,7 @@ private:
     Amhv& out_;
     const int nx_, ny_, nz_, frames_;
     const std::uint32_t columns_;
+    const ColumnWindow window_;  // the columns voxelised (input_.columns())
     const std::uint64_t layer_bytes_;
     std::uint64_t budget_ = 0, key_limit_ = 0, item_limit_ = 0;
     std::vector<FramePlan>& frame_plans_;
@@ -169,6 +172,7 @@ VulkanVoxeliser::Call::Call(VulkanVoxeliser& voxeliser, const VoxelisationInput&
       nz_(input.grid.dims[2]),
       frames_(int(input.frames.size())),
       columns_(std::uint32_t(nx_) * std::uint32_t(ny_)),
+      window_(input.columns()),
       layer_bytes_(std::uint64_t(columns_) * 4),
       frame_plans_(voxeliser.host_->frame_plans),
       sequence_(voxeliser.context_),
@@ -348,15 +352,20 @@ std::uint32_t VulkanVoxeliser::Call::gather(int batch_first, int batch_frames) {
         std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame_;
         std::fill_n(edges, room_edges_per_frame_, 0);
         if (!frame.closed) return;
-        // Where each class's items begin.
-        std::array<GpuItem*, kItemClasses> class_item;
+        // Where each class's items begin and end.
+        std::array<GpuItem*, kItemClasses> class_item, class_end;
         GpuItem* next_item = item_out + frame_base_[slot];
         const FramePlan& plan = frame_plans_[std::size_t(batch_first) + slot];
         for (std::size_t c = 0; c < kItemClasses; ++c) {
             class_item[c] = next_item;
             next_item += plan.class_items[c];
+            class_end[c] = next_item;
         }
+        // Rooms and runs within the window's columns alone (the planned counts hold the whole grid).
         auto add_room = [&](int y, int first, int last) {
+            if (y < window_.y0 || y > window_.y1) return;
+            first = std::max(first, window_.x0), last = std::min(last, window_.x1);
+            if (first > last) return;
             ++edges[std::size_t(y) * room_row_ + std::size_t(first)];
             --edges[std::size_t(y) * room_row_ + std::size_t(last) + 1];
         };
@@ -365,19 +374,39 @@ std::uint32_t VulkanVoxeliser::Call::gather(int batch_first, int batch_frames) {
             if (crossable.mask_stride == kSpans) {
                 for_each_span(crossable, plan.rows, [&](int y, int first, int last) {
                     add_room(y, first, last);
+                    if (y < window_.y0 || y > window_.y1) return;
+                    // Each planned run in its planned class, less its columns outside the window.
                     for_each_run(first, last, [&](int x, int run) {
-                        *class_item[item_class(crossable, std::uint32_t(run))]++ = pack_item(t, std::uint32_t(slot), run_word(y, x, run), 0);
+                        const int from = std::max(x, window_.x0), to = std::min(x + run - 1, window_.x1);
+                        if (from <= to)
+                            *class_item[item_class(crossable, std::uint32_t(run))]++ =
+                                pack_item(t, std::uint32_t(slot), run_word(y, from, to - from + 1), 0);
                     });
                 });
                 continue;
             }
-            *class_item[item_class(crossable, crossable.covered)]++ =
-                pack_item(t, std::uint32_t(slot) | kMaskedTriangle | (std::uint32_t(crossable.mask_stride) << 6), crossable.coverage,
-                          std::uint32_t(crossable.x0) | (std::uint32_t(crossable.y0) << 16));
+            if (const std::uint32_t coverage = coverage_in_window(crossable))
+                *class_item[item_class(crossable, crossable.covered)]++ =
+                    pack_item(t, std::uint32_t(slot) | kMaskedTriangle | (std::uint32_t(crossable.mask_stride) << 6), coverage,
+                              std::uint32_t(crossable.x0) | (std::uint32_t(crossable.y0) << 16));
             for_each_span(crossable, plan.rows, add_room);
         }
+        // The items a window left out: the raster passes over an all-zero item (a triangle of no area).
+        for (std::size_t c = 0; c < kItemClasses; ++c) std::fill(class_item[c], class_end[c], GpuItem{});
     });
     return total;
+}
+
+// A masked triangle's coverage less the columns outside the window.
+std::uint32_t VulkanVoxeliser::Call::coverage_in_window(const Crossable& crossable) const {
+    if (window_.contains(crossable.x0, crossable.y0) && window_.contains(crossable.x1, crossable.y1)) return crossable.coverage;
+    const int stride = crossable.mask_stride, column_mask = (1 << stride) - 1;
+    std::uint32_t kept = 0;
+    for (std::uint32_t pending = crossable.coverage; pending != 0u; pending &= pending - 1u) {
+        const int bit = std::countr_zero(pending);
+        if (window_.contains(crossable.x0 + (bit & column_mask), crossable.y0 + (bit >> stride))) kept |= 1u << bit;
+    }
+    return kept;
 }
 
 // Stretches in bucket order; every cursor starts at its bucket's start. A frame's rooms add up to
@@ -392,17 +421,25 @@ void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames, int
     slot_base_[0] = 0;
     for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot)
         slot_base_[slot + 1] = slot_base_[slot] + std::uint32_t(frame_keys(std::size_t(batch_first) + slot));
+    // Only the window's buckets: no kernel reads the others' starts (their columns have no room).
+    // Each row's last room is kept: the start after it may be another row's or frame's.
+    const std::size_t x0 = std::size_t(window_.x0), x1 = std::size_t(std::max(window_.x0, window_.x1)), rows = std::size_t(ny_);
+    // The window's rows, none when it is empty.
+    const std::size_t y_first = std::size_t(window_.y0), y_end = window_.x0 <= window_.x1 ? std::size_t(window_.y1 + 1) : y_first;
+    std::vector<std::int32_t>& last_room = v_.host_->row_last_room;
+    last_room.resize(std::size_t(batch_frames) * rows);
     parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
         const std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame_;
         std::uint32_t next = slot_base_[slot];
-        std::size_t bucket = slot * columns_;
-        for (std::size_t y = 0; y < std::size_t(ny_); ++y) {
+        for (std::size_t y = y_first; y < y_end; ++y) {
             std::int32_t room = 0;
-            for (std::size_t x = 0; x < std::size_t(nx_); ++x, ++bucket) {
+            std::size_t bucket = slot * columns_ + y * std::size_t(nx_) + x0;
+            for (std::size_t x = x0; x <= x1; ++x, ++bucket) {
                 room += edges[y * room_row_ + x];
                 starts[bucket] = cursors[bucket] = next;
                 next += std::uint32_t(room);
             }
+            last_room[slot * rows + y] = room;
         }
     });
     starts[std::size_t(batch_frames) * columns_] = slot_base_[std::size_t(batch_frames)];
@@ -418,14 +455,20 @@ void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames, int
     parallel_for(kStretches, [&](std::size_t stretch) {
         const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
         std::fill(frames_with_room + first, frames_with_room + last, 0u);
-        for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
-            const std::uint32_t* start = starts + slot * columns;
-            for (std::size_t column = first; column < last; ++column)
-                frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
+        for (std::size_t y = y_first; y < y_end; ++y) {
+            // This stretch's part of the window's row.
+            const std::size_t from = std::max(first, y * std::size_t(nx_) + x0), to = std::min(last, y * std::size_t(nx_) + x1 + 1);
+            const std::size_t row_last = y * std::size_t(nx_) + x1;
+            for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
+                const std::uint32_t* start = starts + slot * columns;
+                for (std::size_t column = from; column < std::min(to, row_last); ++column)
+                    frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
+                if (row_last < to && last_room[slot * rows + y] != 0) frames_with_room[row_last] |= 1u << slot;
+            }
+            if (flips)
+                for (std::size_t column = from; column < to; ++column)
+                    if (frames_with_room[column] != 0) std::fill_n(flips + column * layers, layers, 0u);
         }
-        if (flips)
-            for (std::size_t column = first; column < last; ++column)
-                if (frames_with_room[column] != 0) std::fill_n(flips + column * layers, layers, 0u);
     });
     // Every list empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
     std::uint32_t* list_heads = b.lists->mapped<std::uint32_t>().data();
