@@ -1,7 +1,9 @@
 #version 450
 // Pass 1 of the solid voxelisation. Every invocation takes one work item of a triangle: the whole
 // triangle when its covered columns come as a mask, or a run of one row's columns of a larger one.
-// A bucket is one (column, frame slot): index slot * columns + column. Each crossing's
+// A bucket is one (column, frame slot): index slot * columns + column, the column counted in the
+// window of columns voxelised (nx x ny from window_x0, window_y0 of the grid; the items hold only
+// its columns, in grid coordinates). Each crossing's
 // key (layer << 1 | upward) goes into its bucket's next slot, where layer is the first voxel
 // centre above the crossing, relative to the slab (crossings below the slab count from its first
 // layer; those above it affect no voxel of the slab and are left out). The host gave every bucket
@@ -36,6 +38,8 @@ layout(push_constant) uniform Params {
     int ny;
     int z_begin;     // first z layer of the slab
     int slab_layers; // z layers in the slab
+    int window_x0;   // the window's first column and row in the grid
+    int window_y0;
 } params;
 
 ivec3 unpack_vertex(uint low, uint high) {
@@ -59,6 +63,7 @@ void main() {
     // Read once here: on lavapipe a push-constant read inside the slot loop is a load per lane.
     const int64_t z_begin = int64_t(params.z_begin), slab_layers = int64_t(params.slab_layers);
     const uint nx = uint(params.nx), columns = uint(params.nx * params.ny);
+    const int window_x0 = params.window_x0, window_y0 = params.window_y0;
     uvec4 vertices = uvec4(texelFetch(work_items, int(2u * item_index)));
     uvec4 rest = uvec4(texelFetch(work_items, int(2u * item_index + 1u)));
     ivec3 a = unpack_vertex(vertices.x, vertices.y), b = unpack_vertex(vertices.z, vertices.w), c = unpack_vertex(rest.x, rest.y);
@@ -101,8 +106,8 @@ void main() {
             int bit = findLSB(pending);
             int dx = bit & column_mask, dy = bit >> stride;
             int64_t numerator = corner_numerator + int64_t(dx) * step_x_numerator + int64_t(dy) * step_y_numerator;
-            add_crossing(frame_slot * columns + uint(y0 + dy) * nx + uint(x0 + dx), numerator, layer_divisor, layer_reciprocal, upward,
-                         z_begin, slab_layers);
+            uint bucket = frame_slot * columns + uint(y0 + dy - window_y0) * nx + uint(x0 + dx - window_x0);
+            add_crossing(bucket, numerator, layer_divisor, layer_reciprocal, upward, z_begin, slab_layers);
         }
         return;
     }
@@ -118,7 +123,7 @@ void main() {
     int ea = coverage_edge(wa, is_top_left(b.xy, c.xy));
     int eb = coverage_edge(wb, is_top_left(c.xy, a.xy));
     int ec = coverage_edge(wc, is_top_left(a.xy, b.xy));
-    uint bucket = frame_slot * columns + uint(y) * nx + uint(x_first);
+    uint bucket = frame_slot * columns + uint(y - window_y0) * nx + uint(x_first - window_x0);
     for (int i = 0; i < run; ++i) {
         if ((ea | eb | ec) >= 0) add_crossing(bucket + uint(i), numerator, layer_divisor, layer_reciprocal, upward, z_begin, slab_layers);
         ea += step_x_wa;

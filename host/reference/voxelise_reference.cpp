@@ -37,7 +37,7 @@ void ReferenceVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& ou
                     int winding = 0;
                     for (const Crossing& c : crossings)
                         if (c.first_above <= z) winding += c.winding_change;
-                    if (winding != 0) out.set(grid.index(x, y, z), int(f));
+                    if (winding != 0) out.set(out.grid().index(x - window.x0, y - window.y0, z), int(f));
                 }
             }
     }

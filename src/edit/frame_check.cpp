@@ -172,11 +172,21 @@ struct BatchScan {
     }
 };
 
-// Layers z0..z1-1 of `region`: each voxel's boundary bits (its word less the AND of its six
-// neighbours' words; outside the grid is empty) and its overlap bits (A's bit f with B's bit n + f),
-// every frame at once.
-BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, const Region& region, int z0, int z1) {
+// The batch's volume: the columns of `grid` in `window` (the voxelisation's output grid).
+struct WindowVolume {
+    const Amhv& volume;
+    const VoxelGrid& grid;  // the batch's grid, whose voxel indices the scan reports
+    ColumnWindow window;
+};
+
+// Layers z0..z1-1 of `region` (the batch grid's voxels, in the window): each voxel's boundary bits
+// (its word less the AND of its six neighbours' words; outside the volume is empty: the window
+// holds the region's neighbours, or ends where the grid does) and its overlap bits (A's bit f with
+// B's bit n + f), every frame at once.
+BatchScan scan_slab(const WindowVolume& in, std::size_t n, const std::vector<Pending>& batch, const Region& region, int z0, int z1) {
+    const Amhv& both = in.volume;
     const VoxelGrid& g = both.grid();
+    const int x0 = in.window.x0, y0 = in.window.y0;
     BatchScan scan(n);
     auto word = [&](int x, int y, int z) {
         return x >= 0 && y >= 0 && z >= 0 && x < g.dims[0] && y < g.dims[1] && z < g.dims[2] ? both.word(0, g.index(x, y, z)) : 0u;
@@ -190,23 +200,26 @@ BatchScan scan_slab(const Amhv& both, std::size_t n, const std::vector<Pending>&
             return plane[v - 1] & plane[v + 1] & plane[v - row] & plane[v + row] & plane[v - layer] & plane[v + layer];
         return word(x - 1, y, z) & word(x + 1, y, z) & word(x, y - 1, z) & word(x, y + 1, z) & word(x, y, z - 1) & word(x, y, z + 1);
     };
+    // The region in the volume's columns.
+    const int x_first = region.lo[0] - x0, x_last = region.hi[0] - x0, y_first = region.lo[1] - y0, y_last = region.hi[1] - y0;
     for (int z = z0; z < z1; ++z)
-        for (int y = region.lo[1]; y <= region.hi[1]; ++y)
-            for (int x = region.lo[0]; x <= region.hi[0]; ++x) {
+        for (int y = y_first; y <= y_last; ++y)
+            for (int x = x_first; x <= x_last; ++x) {
                 const std::size_t v = g.index(x, y, z);
                 // The bodies fill a few percent of the batch's grid: eight empty voxels at once.
-                if ((x & 7) == 0 && x + 8 <= region.hi[0] + 1 && eight_words_zero(plane + v)) {
+                if ((x & 7) == 0 && x + 8 <= x_last + 1 && eight_words_zero(plane + v)) {
                     x += 7;
                     continue;
                 }
                 const std::uint32_t w = plane[v];
                 if (!w) continue;
                 std::uint32_t edge = w & ~neighbours(x, y, z, v);
-                for (; edge; edge &= edge - 1) scan.boundary[std::size_t(std::countr_zero(edge))].push_back({double(x), double(y), double(z)});
+                for (; edge; edge &= edge - 1)
+                    scan.boundary[std::size_t(std::countr_zero(edge))].push_back({double(x + x0), double(y + y0), double(z)});
                 for (std::uint32_t overlap = w & (w >> n) & low_bits; overlap; overlap &= overlap - 1) {
                     const std::size_t f = std::size_t(std::countr_zero(overlap));
                     ++scan.overlap[f];
-                    const Vec3 c = g.centre(x, y, z);
+                    const Vec3 c = in.grid.centre(x + x0, y + y0, z);
                     const double along = batch[f].check->apart.dot(Eigen::Vector2d(c.x(), c.y()));
                     scan.low[f] = std::min(scan.low[f], along), scan.high[f] = std::max(scan.high[f], along);
                 }
@@ -240,7 +253,7 @@ ColumnWindow scan_columns(const VoxelGrid& grid, const Region& region) {
 
 // The volume's scan region in slabs of layers on every core, joined in z order: the same as one
 // pass. Outside the region lie only boundary voxels that nearest_voxels leaves out, and no overlap.
-BatchScan scan_batch(const Amhv& both, std::size_t n, const std::vector<Pending>& batch, const Region& region) {
+BatchScan scan_batch(const WindowVolume& both, std::size_t n, const std::vector<Pending>& batch, const Region& region) {
     const int z_first = region.lo[2], layers = std::max(0, region.hi[2] - region.lo[2] + 1);
     const int slabs = std::min(layers, 16), per = slabs > 0 ? (layers + slabs - 1) / slabs : 0;
     std::vector<std::optional<BatchScan>> parts(static_cast<std::size_t>(slabs));
@@ -284,8 +297,8 @@ void decide_batch(std::vector<Pending>& batch, double voxel, Voxeliser& voxelise
     const Region region = scan_region(grid, batch);
     VoxelisationInput input = prepare_voxelisation(pointers, grid);
     input.window = scan_columns(grid, region);
-    const Amhv both = voxelise(input, voxeliser);
-    const BatchScan scan = scan_batch(both, n, batch, region);
+    const Amhv volume = voxelise(input, voxeliser);
+    const BatchScan scan = scan_batch({volume, grid, *input.window}, n, batch, region);
     for (std::size_t f = 0; f < n; ++f) skip_gaps |= gaps == Gaps::UntilAnOverlap && batch[f].check->overlap > 0;
     // Each frame's gap on its own (frames write only their own check).
     parallel_for(n, [&](std::size_t f) {

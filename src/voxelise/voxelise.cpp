@@ -46,6 +46,20 @@ VoxelisationInput prepare_voxelisation(const std::vector<const MeshFrame*>& fram
     return input;
 }
 
+VoxelGrid VoxelisationInput::output_grid() const {
+    if (!window) return grid;
+    const ColumnWindow w = *window;
+    VoxelGrid out = grid;
+    const std::array<std::int64_t, 3> lattice = grid.lattice_origin();
+    // On the lattice as grid_covering puts an origin: a whole number of voxels times the edge.
+    out.origin.x() = double(lattice[0] + w.x0) * grid.voxel;
+    out.origin.y() = double(lattice[1] + w.y0) * grid.voxel;
+    out.dims[0] = std::max(0, w.x1 - w.x0 + 1);
+    out.dims[1] = std::max(0, w.y1 - w.y0 + 1);
+    if (out.dims[0] == 0 || out.dims[1] == 0) out.dims[0] = out.dims[1] = 0;
+    return out;
+}
+
 VoxelisationInput prepare_voxelisation_stacked(const std::vector<const MeshFrame*>& frames, const std::vector<VoxelGrid>& grids) {
     if (frames.size() != grids.size() || frames.empty()) fail("voxelisation", "internal: {} frames stacked on {} grids", frames.size(), grids.size());
     VoxelisationInput input;
@@ -99,16 +113,19 @@ void voxelise_surface(const PreparedFrame& frame, int frame_index, const ColumnW
         Vec3 hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
         int first[3], last[3];
         for (int a = 0; a < 3; ++a) {
-            first[a] = std::max(0, int(std::floor(lo[a])) - 1);
-            last[a] = std::min(dims[a] - 1, int(std::floor(hi[a])));
+            first[a] = int(std::floor(lo[a])) - 1;
+            last[a] = int(std::floor(hi[a]));
         }
+        // The grid's columns in the window (within the grid), and its layers: the volume's.
         first[0] = std::max(first[0], columns.x0), last[0] = std::min(last[0], columns.x1);
         first[1] = std::max(first[1], columns.y0), last[1] = std::min(last[1], columns.y1);
+        first[2] = std::max(first[2], 0), last[2] = std::min(last[2], dims[2] - 1);
+        // The volume is the window's: its column (x, y) is the grid's (x0 + x, y0 + y).
         for (int z = first[2]; z <= last[2]; ++z)
             for (int y = first[1]; y <= last[1]; ++y)
                 for (int x = first[0]; x <= last[0]; ++x)
                     if (triangle_touches_box(tri, Vec3(x + 0.5, y + 0.5, z + 0.5), 0.5))
-                        out.set(out.grid().index(x, y, z), frame_index);
+                        out.set(out.grid().index(x - columns.x0, y - columns.y0, z), frame_index);
     }
 }
 
@@ -116,7 +133,8 @@ Amhv voxelise(const VoxelisationInput& input, Voxeliser& backend, VoxeliseReport
     if (const ColumnWindow w = input.columns(); w.x0 < 0 || w.y0 < 0 || w.x1 >= input.grid.dims[0] || w.y1 >= input.grid.dims[1])
         fail("voxelisation", "internal: columns {}..{} x {}..{} outside the {} x {} grid", w.x0, w.x1, w.y0, w.y1, input.grid.dims[0],
              input.grid.dims[1]);
-    Amhv volume(input.grid, int(input.frames.size()));
+    Amhv volume(input.output_grid(), int(input.frames.size()));
+    if (volume.voxel_count() == 0) return volume;  // an empty window
     backend.voxelise_solid(input, volume);
     for (std::size_t f = 0; f < input.frames.size(); ++f) {
         if (input.frames[f].closed) continue;

@@ -31,11 +31,14 @@ struct ColumnWindow {
 struct VoxelisationInput {
     VoxelGrid grid;
     std::vector<PreparedFrame> frames;
-    // Only these columns are voxelised, the others left empty: a column's voxels depend on the
-    // surface's crossings with that column alone, so a window's are those of the whole volume.
-    // Unset: every column.
+    // Only these columns are voxelised, and the volume is theirs alone (output_grid): a column's
+    // voxels depend on the surface's crossings with that column alone, so a window's are those of
+    // the whole volume there. Unset: every column.
     std::optional<ColumnWindow> window;
     ColumnWindow columns() const { return window ? *window : ColumnWindow{0, 0, grid.dims[0] - 1, grid.dims[1] - 1}; }
+    // The grid cropped to columns(): the voxelised volume's (on the same lattice; its column (x, y)
+    // is the grid's (x0 + x, y0 + y)).
+    VoxelGrid output_grid() const;
 };
 
 fixed::Point3 quantise(const Vec3& p, const VoxelGrid& grid);

@@ -57,7 +57,7 @@ inline std::uint32_t run_word(int y, int first, int columns) {
 
 struct RasterParams {
     std::uint32_t work_base, work_count;
-    std::int32_t nx, ny, z_begin, slab_layers;
+    std::int32_t nx, ny, z_begin, slab_layers, window_x0, window_y0;
 };
 struct ColumnParams {
     std::uint32_t column_base, column_count, columns;
@@ -80,9 +80,8 @@ std::vector<Binding> column_bindings() {
 struct VulkanVoxeliser::HostScratch {
     std::vector<FramePlan> frame_plans;
     std::vector<std::int32_t> room_edges;
-    std::vector<std::int32_t> row_last_room;  // per frame of the batch and row: its last column's room
     std::uint64_t bytes() const {
-        std::uint64_t total = (room_edges.capacity() + row_last_room.capacity()) * sizeof(std::int32_t);
+        std::uint64_t total = room_edges.capacity() * sizeof(std::int32_t);
         for (const FramePlan& plan : frame_plans)
             total += plan.crossables.capacity() * sizeof(Crossable) + plan.rows.capacity() * sizeof(RowSpan);
         return total;
@@ -146,9 +145,10 @@ private:
     VulkanVoxeliser& v_;
     const VoxelisationInput& input_;
     Amhv& out_;
-    const int nx_, ny_, nz_, frames_;
+    const ColumnWindow window_;  // the input grid's columns voxelised (input_.columns()): the output's
+    const int grid_nx_, grid_ny_;  // the input grid's columns, where the frames are planned
+    const int nx_, ny_, nz_, frames_;  // the output's: the window's columns
     const std::uint32_t columns_;
-    const ColumnWindow window_;  // the columns voxelised (input_.columns())
     const std::uint64_t layer_bytes_;
     std::uint64_t budget_ = 0, key_limit_ = 0, item_limit_ = 0;
     std::vector<FramePlan>& frame_plans_;
@@ -167,12 +167,14 @@ VulkanVoxeliser::Call::Call(VulkanVoxeliser& voxeliser, const VoxelisationInput&
     : v_(voxeliser),
       input_(input),
       out_(out),
-      nx_(input.grid.dims[0]),
-      ny_(input.grid.dims[1]),
+      window_(input.columns()),
+      grid_nx_(input.grid.dims[0]),
+      grid_ny_(input.grid.dims[1]),
+      nx_(window_.x1 - window_.x0 + 1),
+      ny_(window_.y1 - window_.y0 + 1),
       nz_(input.grid.dims[2]),
       frames_(int(input.frames.size())),
       columns_(std::uint32_t(nx_) * std::uint32_t(ny_)),
-      window_(input.columns()),
       layer_bytes_(std::uint64_t(columns_) * 4),
       frame_plans_(voxeliser.host_->frame_plans),
       sequence_(voxeliser.context_),
@@ -239,9 +241,9 @@ void VulkanVoxeliser::Call::plan_frames() {
             return;
         }
         if (masks)
-            plan_frame_with_masks(frame, nx_, ny_, plan);
+            plan_frame_with_masks(frame, grid_nx_, grid_ny_, plan);
         else
-            plan_frame_with_spans(frame, nx_, ny_, plan);
+            plan_frame_with_spans(frame, grid_nx_, grid_ny_, plan);
     });
     for (int f = 0; f < frames_; ++f) {
         const PreparedFrame& frame = input_.frames[std::size_t(f)];
@@ -361,13 +363,15 @@ std::uint32_t VulkanVoxeliser::Call::gather(int batch_first, int batch_frames) {
             next_item += plan.class_items[c];
             class_end[c] = next_item;
         }
-        // Rooms and runs within the window's columns alone (the planned counts hold the whole grid).
+        // Rooms and runs within the window's columns alone (the planned counts hold the whole grid);
+        // the rooms, like the buckets, by the window's columns.
         auto add_room = [&](int y, int first, int last) {
             if (y < window_.y0 || y > window_.y1) return;
             first = std::max(first, window_.x0), last = std::min(last, window_.x1);
             if (first > last) return;
-            ++edges[std::size_t(y) * room_row_ + std::size_t(first)];
-            --edges[std::size_t(y) * room_row_ + std::size_t(last) + 1];
+            const std::size_t row = std::size_t(y - window_.y0) * room_row_;
+            ++edges[row + std::size_t(first - window_.x0)];
+            --edges[row + std::size_t(last - window_.x0) + 1];
         };
         for (const Crossable& crossable : plan.crossables) {
             const fixed::Triangle& t = frame.triangles[crossable.triangle];
@@ -421,25 +425,17 @@ void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames, int
     slot_base_[0] = 0;
     for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot)
         slot_base_[slot + 1] = slot_base_[slot] + std::uint32_t(frame_keys(std::size_t(batch_first) + slot));
-    // Only the window's buckets: no kernel reads the others' starts (their columns have no room).
-    // Each row's last room is kept: the start after it may be another row's or frame's.
-    const std::size_t x0 = std::size_t(window_.x0), x1 = std::size_t(std::max(window_.x0, window_.x1)), rows = std::size_t(ny_);
-    // The window's rows, none when it is empty.
-    const std::size_t y_first = std::size_t(window_.y0), y_end = window_.x0 <= window_.x1 ? std::size_t(window_.y1 + 1) : y_first;
-    std::vector<std::int32_t>& last_room = v_.host_->row_last_room;
-    last_room.resize(std::size_t(batch_frames) * rows);
     parallel_for(std::size_t(batch_frames), [&](std::size_t slot) {
         const std::int32_t* edges = room_edges.data() + slot * room_edges_per_frame_;
         std::uint32_t next = slot_base_[slot];
-        for (std::size_t y = y_first; y < y_end; ++y) {
+        std::size_t bucket = slot * columns_;
+        for (std::size_t y = 0; y < std::size_t(ny_); ++y) {
             std::int32_t room = 0;
-            std::size_t bucket = slot * columns_ + y * std::size_t(nx_) + x0;
-            for (std::size_t x = x0; x <= x1; ++x, ++bucket) {
+            for (std::size_t x = 0; x < std::size_t(nx_); ++x, ++bucket) {
                 room += edges[y * room_row_ + x];
                 starts[bucket] = cursors[bucket] = next;
                 next += std::uint32_t(room);
             }
-            last_room[slot * rows + y] = room;
         }
     });
     starts[std::size_t(batch_frames) * columns_] = slot_base_[std::size_t(batch_frames)];
@@ -455,20 +451,14 @@ void VulkanVoxeliser::Call::bucket_starts(int batch_first, int batch_frames, int
     parallel_for(kStretches, [&](std::size_t stretch) {
         const std::size_t first = columns * stretch / kStretches, last = columns * (stretch + 1) / kStretches;
         std::fill(frames_with_room + first, frames_with_room + last, 0u);
-        for (std::size_t y = y_first; y < y_end; ++y) {
-            // This stretch's part of the window's row.
-            const std::size_t from = std::max(first, y * std::size_t(nx_) + x0), to = std::min(last, y * std::size_t(nx_) + x1 + 1);
-            const std::size_t row_last = y * std::size_t(nx_) + x1;
-            for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
-                const std::uint32_t* start = starts + slot * columns;
-                for (std::size_t column = from; column < std::min(to, row_last); ++column)
-                    frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
-                if (row_last < to && last_room[slot * rows + y] != 0) frames_with_room[row_last] |= 1u << slot;
-            }
-            if (flips)
-                for (std::size_t column = from; column < to; ++column)
-                    if (frames_with_room[column] != 0) std::fill_n(flips + column * layers, layers, 0u);
+        for (std::size_t slot = 0; slot < std::size_t(batch_frames); ++slot) {
+            const std::uint32_t* start = starts + slot * columns;
+            for (std::size_t column = first; column < last; ++column)
+                frames_with_room[column] |= start[column + 1] != start[column] ? 1u << slot : 0u;
         }
+        if (flips)
+            for (std::size_t column = first; column < last; ++column)
+                if (frames_with_room[column] != 0) std::fill_n(flips + column * layers, layers, 0u);
     });
     // Every list empty: indirect dispatches of (0, 1, 1) workgroups, length 0.
     std::uint32_t* list_heads = b.lists->mapped<std::uint32_t>().data();
@@ -490,7 +480,7 @@ bool VulkanVoxeliser::Call::dispatch_batch(Buffer& mask, int batch_first, int ba
     auto raster_set = v_.raster_.bind({b.work_items.get(), &bucket_cursor, &keys});
     auto columns_set = v_.flip_small_.bind({&keys, &bucket_start, &bucket_cursor, &overflow, &toggles, &mask, &keys, &column_frames, &spans,
                                             &large_buckets, &huge_buckets, &lists, &medium_buckets});
-    const RasterParams raster{0, 0, nx_, ny_, z_begin, slab_layers};
+    const RasterParams raster{0, 0, nx_, ny_, z_begin, slab_layers, window_.x0, window_.y0};
     // The previous batch's last reads of the flips and keys must be done before they are cleared
     // and rewritten (the host wrote the cursors after the fence).
     sequence_.barrier();
