@@ -28,9 +28,9 @@ void ReferenceVoxeliser::voxelise_solid(const VoxelisationInput& input, Amhv& ou
                         columns[std::size_t(y) * nx + x].push_back({first_above, t.winding_change});
                 }
         }
-        // Each voxel: the winding number from the crossings below its centre.
-        for (int y = 0; y < ny; ++y)
-            for (int x = 0; x < nx; ++x) {
+        // Each voxel of the window: the winding number from the crossings below its centre.
+        for (int y = window.y0; y <= window.y1; ++y)
+            for (int x = window.x0; x <= window.x1; ++x) {
                 const auto& crossings = columns[std::size_t(y) * nx + x];
                 if (crossings.empty()) continue;
                 for (int z = 0; z < nz; ++z) {

@@ -105,7 +105,8 @@ std::vector<Eigen::Vector2d> frame_roots(ObjectSource& object, const std::vector
     // A frame's root is the mean of its voxels' centres on the grid covering that frame alone: a
     // property of the frame, whatever frames it is computed with. Frames go 32 at a time (one word
     // of the mask), stacked in a grid the size of the largest frame's (prepare_voxelisation_stacked),
-    // not one covering the 32 frames' walk (at 5 mm, a seventh of the voxels).
+    // not one covering the 32 frames' walk (at 5 mm about a fifth smaller: one frame with its arms
+    // out spans most of that walk).
     std::vector<Eigen::Vector2d> roots(numbers.size());
     const Voxeliser::ScratchHold hold(voxeliser);
     for (std::size_t first = 0; first < numbers.size(); first += 32) {

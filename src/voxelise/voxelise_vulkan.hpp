@@ -11,9 +11,10 @@
 //                    switches between zero and non-zero, and runs an XOR up each column over the
 //                    flips: the occupancy words. Four stages sort buckets by size (in registers
 //                    up to 8, 16 and 32 keys, in the key list beyond), a fifth writes.
-// Within a column window (VoxelisationInput::window) the host gives the other columns no room and
-// leaves their work items out (all-zero items, which the raster passes over, keep the classes'
-// places), so no kernel does their work.
+// Within a column window (VoxelisationInput::window) the volume, the buckets and the host's rooms
+// are the window's columns alone: the host clips the planned work items to the window (all-zero
+// items, which the raster passes over, keep the classes' places of those it left out), and the
+// raster counts its buckets from the window's corner; no kernel sees the other columns.
 // GPU work scales with crossings and with the layers a column spans, not with frames x layers.
 // Lavapipe runs a storage-buffer access or an atomic as a loop over the lanes, taken or not, and a
 // texel fetch as one gather; so read-only inputs are texel views, and buffer accesses sit outside
