@@ -484,6 +484,15 @@ TEST(Edit, TexturedObjFramesKeepTheirAppearance) {
     cairo_surface_destroy(texture);
 
     const fs::path out = root / "edit";
+    // The frames name a library in a folder beside theirs: refused until the scene allows that
+    // folder (files_root), so that no file outside what the user gave is read or copied.
+    auto outside = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
+    EXPECT_EQ(outside.exit_code, 1) << outside.output;
+    EXPECT_NE(outside.output.find(".obj:2: material library '../materials/skin.mtl' lies outside"), std::string::npos) << outside.output;
+    std::string scene = read_text(fixture.scene);
+    const std::string b_meshes = "meshes = \"b/%04d.obj\"";
+    scene.replace(scene.find(b_meshes), b_meshes.size(), b_meshes + "\nfiles_root = \".\"");
+    std::ofstream(fixture.scene) << scene;
     auto run = test::run_amhv("edit " + fixture.quoted() + " --out '" + out.string() + "' --no-timings");
     ASSERT_EQ(run.exit_code, 0) << run.output;
     EXPECT_EQ(read_json(out / "result.json").at("output").at("obj_files").get<int>(), 40);

@@ -296,7 +296,7 @@ std::vector<Hostile> scene_cases() {
         {"TrackNaN", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1,nan,0,1.6,1,0,0\n"}},
          check, "track.csv:4"},
         {"ObjMaterialLibraryMissing", {{"m/f_0000.obj", "mtllib none.mtl\n" + kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack}},
-         sweep, "f_0000.obj: material library '"},
+         sweep, "f_0000.obj:1: material library 'none.mtl' does not exist"},
         {"ObjTexcoordText", {{"m/f_0000.obj", kTetra + "vt x 0\n"}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack}}, sweep,
          "f_0000.obj:9: 'x' is not a finite number"},
         {"ObjTexcoordIndexPastEnd", {{"m/f_0000.obj", "vt 0 0\n" + kTetra + "f 1/1 3/1 2/9\n"}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack}},

@@ -114,14 +114,26 @@ TEST(Output, ASecondRunIntoTheSameFolderIsRefusedWhileTheFirstWrites) {
     EXPECT_NE(result.output.find("another amhv run (pid 4242)"), std::string::npos) << result.output;
     EXPECT_FALSE(fs::exists(out));
     ::close(fd);
-    // Released: the next run writes, and removes the staging folders that dead runs left.
-    fs::create_directories(tmp.path() / ".out.partial-999999" / "half");
+    // Released: the next run writes, and removes the staging folder a dead run left (its name and
+    // its marker carry the same run, whose process is gone), and nothing that merely looks like one.
+    const std::string dead = "999999-0123456789abcdef";
+    write_user_file(tmp.path() / (".out.partial-" + dead) / StagedOutput::kMarker, "{\"amhv_output\": 2, \"staging\": \"" + dead + "\"}\n");
+    write_user_file(tmp.path() / (".out.partial-" + dead) / "half.json", "{");
+    write_user_file(tmp.path() / ".out.partial-999998-0123456789abcdef" / "mine.txt", "a user's folder with a staging name");
+    write_user_file(tmp.path() / ".out.partial-anything" / "mine.txt", "a user's folder");
+    const std::string alive = fmt::format("{}-0123456789abcdef", ::getpid());  // this test is alive
+    write_user_file(tmp.path() / (".out.partial-" + alive) / StagedOutput::kMarker, "{\"amhv_output\": 2, \"staging\": \"" + alive + "\"}\n");
     fs::create_directories(tmp.path() / ".other.partial-999999");
     auto next = test::run_amhv(fmt::format("{} --out '{}'", mhv, out.string()));
     EXPECT_EQ(next.exit_code, 0) << next.output;
-    EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999999"));
+    EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + dead)));
+    EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-999998-0123456789abcdef" / "mine.txt"));
+    EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-anything" / "mine.txt"));
+    EXPECT_TRUE(fs::exists(tmp.path() / (".out.partial-" + alive)));
     EXPECT_TRUE(fs::exists(tmp.path() / ".other.partial-999999"));  // another target's: not ours to judge
     EXPECT_FALSE(fs::exists(tmp.path() / ".out.lock"));
+    for (const char* left : {".out.partial-999998-0123456789abcdef", ".out.partial-anything"}) fs::remove_all(tmp.path() / left);
+    fs::remove_all(tmp.path() / (".out.partial-" + alive));
 
     // Two real runs at once: each either writes a whole output or is refused; never both fail.
     std::string both = fmt::format("{0} {1} --out '{2}' > '{3}/first.log' 2>&1 & {0} {1} --voxel 0.03 --out '{2}' > '{3}/second.log' 2>&1; wait",

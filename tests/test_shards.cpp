@@ -55,7 +55,7 @@ z_range = [-0.04, 0.04]
                        cmu);
 }
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+std::string q(const fs::path& p) { return fmt::format("'{}'", p.string()); }
 
 // Every file under `root` by its relative name, with its bytes.
 std::map<std::string, std::string> folder_files(const fs::path& root) {

@@ -219,7 +219,7 @@ TEST(Voxelise, TriangleStartsMatchTheScalarPlanner) {
         fixed::find_starts(std::span(triangles).first(count), nx, ny, starts);
         std::size_t masked = 0, spanned = 0;
         for (std::size_t i = 0; i < count; ++i) {
-            fixed::Oriented o;
+            fixed::Oriented o{};
             const bool faces_up_or_down = fixed::orient(triangles[i], o);
             const int x0 = std::max(o.columns_x.first, 0), x1 = std::min(o.columns_x.last, nx - 1);
             const int y0 = std::max(o.columns_y.first, 0), y1 = std::min(o.columns_y.last, ny - 1);

@@ -113,12 +113,15 @@ std::vector<double> solve_sparse(const Channel& c) {
                     entries.emplace_back(r, column[std::size_t(k)], std::sqrt(kTieBreak));
                     rhs[r++] = std::sqrt(kTieBreak) * c.moved[std::size_t(k)];
                 }
+        // Fewer rows than unknowns (a transition of one or two frames has no objective row at all):
+        // the objective leaves the path undetermined, and Eigen's QR must not see an empty matrix.
+        if (!tie_break && row_count < free_count) return false;
         Eigen::SparseMatrix<double> a(row_count, free_count);
         a.setFromTriplets(entries.begin(), entries.end());
         a.makeCompressed();
         Eigen::SparseQR<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> qr(a);
         if (qr.info() != Eigen::Success) throw Error("path optimisation: the sparse QR factorisation failed");
-        if (!tie_break && (row_count < free_count || int(qr.rank()) < free_count)) return false;
+        if (!tie_break && int(qr.rank()) < free_count) return false;
         x = qr.solve(rhs);
         return true;
     };

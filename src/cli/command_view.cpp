@@ -7,6 +7,7 @@
 #include "src/cli/commands.hpp"
 #include "src/core/error.hpp"
 #include "src/io/output_dir.hpp"
+#include "src/pipeline/page_server.hpp"
 #include "src/pipeline/view_page.hpp"
 
 namespace amhv::cli {
@@ -23,8 +24,10 @@ struct ViewArguments {
 // The page is written beside the folder's files in a staging folder of its own, then moved into
 // place: a failed run leaves the folder as it was. Only folders amhv wrote are touched.
 void write_page_into(const fs::path& dir) {
-    if (!fs::is_regular_file(dir / StagedOutput::kMarker))
-        fail(dir.string(), "is not an output folder of amhv (it has no {}): amhv writes its page only into folders it made", StagedOutput::kMarker);
+    if (!is_amhv_output(dir))
+        fail(dir.string(), "is not an output folder of amhv as it wrote it (no {} listing everything in it): amhv writes its page only "
+                           "into folders it made",
+             StagedOutput::kMarker);
     const fs::path staging = dir / fmt::format(".view.partial-{}", ::getpid());
     fs::remove_all(staging);
     fs::create_directories(staging);
@@ -34,6 +37,7 @@ void write_page_into(const fs::path& dir) {
         fs::rename(staging / "view", dir / "view");
         fs::rename(staging / "index.html", dir / "index.html");
         fs::remove_all(staging);
+        write_output_marker(dir);  // the folder's list now holds the page
         std::cout << fmt::format("wrote {}/index.html and view/ ({:.1f} MB): open it in a web browser\n", dir.string(), double(report.bytes) / 1e6);
     } catch (...) {
         fs::remove_all(staging);

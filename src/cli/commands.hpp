@@ -15,6 +15,7 @@ void add_view_command(CLI::App& app);  // view
 void add_shard_commands(CLI::App& app);  // merge, plan
 
 // Runs the whole program; returns the exit code. Every failure becomes one "amhv: error: ..." line.
-int run(int argc, char** argv);
+// `commit` is the commit the program was built from (`amhv --version`).
+int run(int argc, char** argv, const char* commit);
 
 }  // namespace amhv::cli

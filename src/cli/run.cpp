@@ -4,6 +4,7 @@
 #include <new>
 #include <iostream>
 
+#include <fmt/format.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -13,7 +14,7 @@
 
 namespace amhv::cli {
 
-int run(int argc, char** argv) {
+int run(int argc, char** argv, const char* commit) {
     // Past a file size limit (ulimit -f) a write then fails with EFBIG, which the checked writes
     // report, instead of the signal killing the run without a word.
     std::signal(SIGXFSZ, SIG_IGN);
@@ -22,7 +23,7 @@ int run(int argc, char** argv) {
     spdlog::set_default_logger(logger);
 
     CLI::App app{"amhv: spatiotemporal editing of two separately captured performances with augmented Motion History Volumes"};
-    app.set_version_flag("--version", std::string("amhv ") + AMHV_VERSION);
+    app.set_version_flag("--version", fmt::format("amhv {} (commit {})", AMHV_VERSION, commit));
     app.require_subcommand(1);
     app.fallthrough();  // --max-memory, -q, -v also after the subcommand
     bool quiet = false, verbose = false;
@@ -58,7 +59,12 @@ int run(int argc, char** argv) {
         std::cerr << "amhv: error: " << escape_controls(e.what()) << '\n';
         return 1;
     } catch (const std::bad_alloc&) {
-        std::cerr << "amhv: error: out of memory: use a larger voxel, a narrower x/y range or fewer frames (--max-memory sets the budget)\n";
+        const std::string file = ReadingFile::current();
+        if (!file.empty())
+            std::cerr << "amhv: error: " << escape_controls(file)
+                      << ": out of memory while reading it: the file needs more memory than this machine has (is it what it claims to be?)\n";
+        else
+            std::cerr << "amhv: error: out of memory: use a larger voxel, a narrower x/y range or fewer frames (--max-memory sets the budget)\n";
         return 1;
     } catch (const std::filesystem::filesystem_error& e) {
         std::cerr << "amhv: error: " << escape_controls(e.path1().string()) << ": " << e.code().message() << '\n';

@@ -35,4 +35,21 @@ template <typename... Args>
     throw Error(what + ": " + fmt::format(format, std::forward<Args>(args)...));
 }
 
+// The input file the run is reading, for the out-of-memory message: while one of these lives, an
+// allocation that fails is reported as the file's ("out of memory while reading FILE"), not as a
+// voxel or range too fine. Readers make one for the length of their read; the innermost wins.
+class ReadingFile {
+public:
+    explicit ReadingFile(std::string path);
+    ~ReadingFile();
+    ReadingFile(const ReadingFile&) = delete;
+    ReadingFile& operator=(const ReadingFile&) = delete;
+    // The file being read now; else the innermost one whose read an exception left; else empty.
+    static std::string current();
+
+private:
+    std::string previous_;
+    int exceptions_ = 0;
+};
+
 }  // namespace amhv

@@ -15,47 +15,23 @@ namespace amhv {
 
 namespace {
 
-struct Token {
-    std::string text;
-    int line;
-};
-
+// The file's words, read one at a time from the stream: memory stays a word, whatever the file's
+// size (a 100 MB take is never held as text, let alone as a list of strings).
 class Tokens {
 public:
-    Tokens(const std::string& text, std::string source) : source_(std::move(source)) {
-        int line = 1;
-        std::size_t i = 0;
-        while (i < text.size()) {
-            char c = text[i];
-            if (c == '\n' || (c == '\r' && (i + 1 == text.size() || text[i + 1] != '\n'))) {  // LF, CRLF or a lone CR
-                ++line;
-                ++i;
-            } else if (std::isspace(static_cast<unsigned char>(c))) {
-                ++i;
-            } else if (c == '#' || (c == '/' && i + 1 < text.size() && text[i + 1] == '/')) {
-                while (i < text.size() && text[i] != '\n' && text[i] != '\r') ++i;  // comment to end of line
-            } else if (c == '{' || c == '}') {
-                tokens_.push_back({std::string(1, c), line});
-                ++i;
-            } else {
-                std::size_t j = i;
-                while (j < text.size() && !std::isspace(static_cast<unsigned char>(text[j])) && text[j] != '{' && text[j] != '}') ++j;
-                tokens_.push_back({text.substr(i, j - i), line});
-                i = j;
-            }
-        }
-        last_line_ = line;
-    }
+    Tokens(std::istream& in, std::string source) : in_(*in.rdbuf()), source_(std::move(source)) { advance(); }
 
-    bool done() const { return next_ >= tokens_.size(); }
-    int line() const { return done() ? last_line_ : tokens_[next_].line; }
+    bool done() const { return !has_; }
+    int line() const { return has_ ? current_line_ : line_; }
     const std::string& peek() const {
         static const std::string end;
-        return done() ? end : tokens_[next_].text;
+        return has_ ? current_ : end;
     }
     std::string take(const char* what) {
-        if (done()) error("file ends where {} was expected", what);
-        return tokens_[next_++].text;
+        if (!has_) error("file ends where {} was expected", what);
+        std::string out = std::move(current_);
+        advance();
+        return out;
     }
     void expect(const std::string& word) {
         int at = line();
@@ -87,10 +63,40 @@ public:
     }
 
 private:
+    // Loads the next word into current_ (or leaves has_ false at the end): LF, CRLF or a lone CR end
+    // a line; '#' and '//' start a comment to the end of the line; '{' and '}' are words alone.
+    void advance() {
+        has_ = false;
+        current_.clear();
+        for (;;) {
+            const int c = in_.sbumpc();
+            if (c == std::char_traits<char>::eof()) return;
+            if (c == '\n' || (c == '\r' && in_.sgetc() != '\n')) {
+                ++line_;
+            } else if (std::isspace(c)) {
+                continue;
+            } else if (c == '#' || (c == '/' && in_.sgetc() == '/')) {
+                for (int d = in_.sgetc(); d != std::char_traits<char>::eof() && d != '\n' && d != '\r'; d = in_.sgetc()) in_.sbumpc();
+            } else {
+                has_ = true;
+                current_line_ = line_;
+                current_.push_back(char(c));
+                if (c == '{' || c == '}') return;
+                for (int d = in_.sgetc(); d != std::char_traits<char>::eof() && !std::isspace(d) && d != '{' && d != '}'; d = in_.sgetc()) {
+                    if (current_.size() >= kMaxWord) error_at(line_, "a word longer than {} characters: not a BVH file", kMaxWord);
+                    current_.push_back(char(in_.sbumpc()));
+                }
+                return;
+            }
+        }
+    }
+
+    static constexpr std::size_t kMaxWord = 4096;
+    std::streambuf& in_;
     std::string source_;
-    std::vector<Token> tokens_;
-    std::size_t next_ = 0;
-    int last_line_ = 1;
+    std::string current_;
+    bool has_ = false;
+    int current_line_ = 1, line_ = 1;
 };
 
 constexpr int kMaxJoints = 1024;
@@ -210,11 +216,14 @@ std::vector<Eigen::Isometry3d> BvhMotion::global_transforms(int frame) const {
 }
 
 BvhMotion read_bvh(const std::filesystem::path& path) {
+    const ReadingFile reading(path.string());
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) fail(path.string(), "cannot open BVH file: it does not exist");
+    if (!std::filesystem::is_regular_file(path, ec)) fail(path.string(), "cannot open BVH file: it is not a regular file");
     std::ifstream file(path, std::ios::binary);
     if (!file) fail(path.string(), "cannot open BVH file");
-    std::stringstream buffer;
-    buffer << file.rdbuf();
-    Tokens tokens(buffer.str(), path.string());
+    const std::uintmax_t file_bytes = std::filesystem::file_size(path, ec);
+    Tokens tokens(file, path.string());
     BvhMotion motion;
     motion.source = path.string();
     // A file that is not a BVH at all: say so without echoing what it holds instead.
@@ -236,7 +245,9 @@ BvhMotion read_bvh(const std::filesystem::path& path) {
         tokens.error_at(frame_time_line, "frame time {} s is not between 0.00001 and 60 seconds", motion.frame_time);
     std::size_t total = std::size_t(motion.frame_count) * std::size_t(motion.channel_count);
     if (total > kMaxValues) tokens.error("{} frames x {} channels is too large", motion.frame_count, motion.channel_count);
-    motion.values.reserve(total);
+    // Every value takes at least two characters ("0 "): a header that promises more frames than
+    // the file can hold reserves no more than the file can fill.
+    motion.values.reserve(std::min<std::size_t>(total, std::size_t(file_bytes / 2) + 1));
     // One frame per line, as the format defines: a row with too few or too many values is named
     // by its line instead of shifting every later frame.
     for (int f = 0; f < motion.frame_count; ++f) {

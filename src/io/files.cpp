@@ -1,5 +1,10 @@
 #include "src/io/files.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdlib>
 
 #include "src/core/error.hpp"
@@ -23,11 +28,30 @@ std::filesystem::path shipped_data_dir() {
     return AMHV_DATA_DIR;
 }
 
-std::string read_file_bytes(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) fail(path.string(), "cannot open the file");
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) fail(path.string(), "reading the file failed");
+std::string read_file_bytes(const std::filesystem::path& path, std::uintmax_t limit) {
+    const ReadingFile reading(path.string());
+    // O_NONBLOCK: a FIFO in a file's place must not hang the run; only a regular file is read.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) fail(path.string(), "cannot open the file");
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        ::close(fd);
+        fail(path.string(), "is not a regular file");
+    }
+    if (std::uintmax_t(st.st_size) > limit) {
+        ::close(fd);
+        fail(path.string(), "is {} bytes, more than the {} this file may have", st.st_size, limit);
+    }
+    std::string bytes(std::size_t(st.st_size), '\0');
+    std::size_t got = 0;
+    while (got < bytes.size()) {
+        const ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
+        got += std::size_t(n);
+    }
+    ::close(fd);
+    if (got != bytes.size()) fail(path.string(), "reading the file failed (it changed while read?)");
     return bytes;
 }
 

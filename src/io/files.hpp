@@ -2,6 +2,7 @@
 // Checked writes: a file is either written in full or the call throws amhv::Error naming it (a full
 // disk, a quota, a file size limit). Streams buffer their last bytes until they close, so a write is
 // checked only after the close.
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,8 +13,9 @@ namespace amhv {
 // Writes `bytes` to `path` (replacing it) and checks the write and the close.
 void write_file(const std::filesystem::path& path, std::string_view bytes);
 
-// The whole file; throws amhv::Error naming `path` when it cannot be read.
-std::string read_file_bytes(const std::filesystem::path& path);
+// The whole file: a regular file (a FIFO, a device or a folder in its place is refused without
+// waiting on it) of at most `limit` bytes; throws amhv::Error naming `path` when it cannot be read.
+std::string read_file_bytes(const std::filesystem::path& path, std::uintmax_t limit = std::uintmax_t(1) << 36);
 
 // The shipped data (scenes/, cmu/, bodies/): AMHV_DATA_DIR in the environment, else the source tree's data/.
 std::filesystem::path shipped_data_dir();

@@ -148,6 +148,28 @@ bool natural_less(const std::string& a, const std::string& b) {
 }
 
 // printf pattern "frame_%04d.obj" -> regex with one capture for the number.
+// The pattern's %d as printf writes it: zero-padded to `width` digits (%04d), or plain (%d).
+struct Conversion {
+    bool zero = false;
+    int width = 0;
+    // Whether printf would write `number` as `digits` (so "f_%04d.obj" names f_0001.obj, not f_1.obj).
+    bool writes(int number, const std::string& digits) const {
+        const std::string plain = std::to_string(number);
+        return digits == (zero && int(plain.size()) < width ? std::string(std::size_t(width) - plain.size(), '0') + plain : plain);
+    }
+};
+
+Conversion pattern_conversion(const std::string& name) {
+    static const std::regex conversion(R"(%(0?)(\d*)d)");
+    std::smatch m;
+    Conversion c;
+    if (std::regex_search(name, m, conversion)) {
+        c.zero = !m[1].str().empty();
+        c.width = m[2].str().empty() ? 0 : std::min(9, std::stoi(m[2].str().substr(0, 2)));
+    }
+    return c;
+}
+
 std::regex pattern_regex(const std::string& name, const std::string& spec) {
     static const std::regex conversion(R"(%(0?\d*)d)");
     std::smatch m;
@@ -176,6 +198,7 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
     } else if (spec.find('%') != std::string::npos) {
         fs::path folder = path.parent_path().empty() ? fs::path(".") : path.parent_path();
         std::regex re = pattern_regex(path.filename().string(), spec);
+        const Conversion conversion = pattern_conversion(path.filename().string());
         if (!fs::is_directory(folder, ec)) fail(spec, "folder {} does not exist", folder.string());
         for (const auto& entry : fs::directory_iterator(folder, ec)) {
             std::smatch m;
@@ -186,6 +209,7 @@ std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<
             const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), number);
             if (error != std::errc() || end != digits.data() + digits.size())
                 fail(entry.path().string(), "frame number {} is beyond {}", printable(digits), std::numeric_limits<int>::max());
+            if (!conversion.writes(number, digits)) continue;  // not a name the pattern gives (f_1.obj for f_%04d.obj)
             frames.push_back({number, entry.path()});
         }
         std::sort(frames.begin(), frames.end(), [](const FrameFile& a, const FrameFile& b) { return a.number < b.number; });
@@ -348,7 +372,7 @@ void precheck_ply(std::istream& in, const std::string& source, std::uint64_t siz
 // Structural checks OpenMesh does not make before it allocates: a header that promises more data
 // than the file holds would make it allocate without bound or read garbage. Text formats are
 // scanned for non-finite coordinates, which OpenMesh would otherwise silently drop.
-void precheck_mesh_file(const fs::path& path) {
+void precheck_mesh_file(const fs::path& path, const fs::path& files_root) {
     const std::string source = path.string();
     const auto size = fs::file_size(path);
     std::ifstream in(path, std::ios::binary);
@@ -371,7 +395,7 @@ void precheck_mesh_file(const fs::path& path) {
         precheck_obj(in, source);
         // Its appearance (texture coordinates, normals, materials) goes to the output: checked line
         // by line here, so that a missing material library is named rather than failing OpenMesh.
-        read_obj_appearance(path);
+        read_obj_appearance(path, files_root);
     } else if (ext == ".off") {
         precheck_off(in, source, size);
     }
@@ -379,13 +403,17 @@ void precheck_mesh_file(const fs::path& path) {
 
 }  // namespace
 
-TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
+TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units, const fs::path& files_root) {
+    const ReadingFile reading(path.string());
     using OMesh = OpenMesh::TriMesh_ArrayKernelT<>;
     std::error_code ec;
     if (!fs::exists(path, ec)) fail(path.string(), "file does not exist");
     if (!fs::is_regular_file(path, ec)) fail(path.string(), "is not a regular file");
-    precheck_mesh_file(path);
+    precheck_mesh_file(path, files_root);
     OMesh mesh;
+    // With face status, OpenMesh marks the faces its half-edge structure cannot take (non-manifold:
+    // it adds them on copies of their vertices); they are left out below, as the warning says.
+    mesh.request_face_status();
     std::ostringstream diagnostics;
     OpenMesh::IO::Options options;
     omerr().disconnect(std::cerr);
@@ -393,17 +421,20 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
     bool ok = OpenMesh::IO::read_mesh(mesh, path.string(), options);
     omerr().disconnect(diagnostics);
     if (!ok) fail(path.string(), "cannot read mesh (unreadable, malformed or unsupported file)");
+    std::size_t non_manifold = 0;
+    for (auto fh : mesh.faces()) non_manifold += mesh.status(fh).fixed_nonmanifold();
     if (!diagnostics.str().empty()) {
-        // Non-manifold faces are dropped by OpenMesh's half-edge structure and reported (captures
-        // have them); anything else it complains of is a broken file.
+        // Anything OpenMesh complains of but non-manifold faces is a broken file.
         const std::string first_line = diagnostics.str().substr(0, diagnostics.str().find('\n'));
         if (first_line.find("complex") == std::string::npos)
             fail(path.string(), "malformed mesh: {}",
                  first_line.find("invalid vertex index") != std::string::npos ? "a face names a vertex the file does not have"
                                                                                : "the reader could not take all of it");
-        spdlog::warn("{}: a face shares an edge or a vertex with others in a way a closed surface cannot (non-manifold); "
-                     "it is dropped", path.string());
     }
+    if (non_manifold > 0)
+        spdlog::warn("{}: {} face{} shared an edge or a vertex with others in a way a closed surface cannot (non-manifold); "
+                     "{} left out",
+                     path.string(), non_manifold, non_manifold == 1 ? "" : "s", non_manifold == 1 ? "it is" : "they are");
     if (mesh.n_faces() == 0) fail(path.string(), "empty frame: the mesh has no faces");
 
     TriangleMesh out;
@@ -420,6 +451,7 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
     }
     out.triangles.reserve(mesh.n_faces());
     for (auto fh : mesh.faces()) {
+        if (mesh.status(fh).fixed_nonmanifold()) continue;
         std::array<std::uint32_t, 3> t{};
         int i = 0;
         for (auto vh : mesh.fv_range(fh)) {
@@ -428,6 +460,7 @@ TriangleMesh read_mesh(const fs::path& path, const UnitsAndAxes& units) {
         }
         if (i == 3) out.triangles.push_back(t);
     }
+    if (out.triangles.empty()) fail(path.string(), "empty frame: every face of the mesh was left out as non-manifold");
     // A mirrored file turns outward normals inward: the winding flips back.
     if (units.map().reflects())
         for (auto& t : out.triangles) std::swap(t[1], t[2]);

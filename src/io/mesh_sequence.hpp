@@ -62,7 +62,8 @@ struct FrameFile {
 std::vector<FrameFile> list_frames(const std::string& spec, const std::optional<FrameRange>& range);
 
 // One mesh file, triangulated, validated (finite coordinates, at least one face) and converted.
-TriangleMesh read_mesh(const std::filesystem::path& path, const UnitsAndAxes& units);
+// `files_root`: where the files an OBJ names must lie (empty: the OBJ's folder).
+TriangleMesh read_mesh(const std::filesystem::path& path, const UnitsAndAxes& units, const std::filesystem::path& files_root = {});
 
 MeshSequence read_mesh_sequence(const std::string& spec, const std::optional<FrameRange>& range, const UnitsAndAxes& units);
 

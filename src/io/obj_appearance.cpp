@@ -99,14 +99,39 @@ bool is_obj_file(const fs::path& file) {
     return ext == ".obj";
 }
 
-std::map<std::string, ObjMaterial> read_mtl(const fs::path& file) {
-    const std::vector<std::string> lines = lines_of(read_file_bytes(file));
+fs::path confined_reference(const fs::path& from_folder, const std::string& reference, const fs::path& files_root, const std::string& where,
+                            const char* what) {
+    const fs::path named(reference);
+    if (reference.empty() || named.is_absolute())
+        fail(where, "{} '{}' is not a path relative to the file's folder; amhv reads only files inside {}", what, printable(reference, 80),
+             files_root.string());
+    std::error_code ec;
+    const fs::path resolved = fs::canonical(from_folder / named, ec);
+    if (ec) fail(where, "{} '{}' does not exist", what, printable(reference, 80));
+    const fs::path root = fs::canonical(files_root, ec);
+    if (ec) fail(files_root.string(), "does not exist (the folder an object's files may come from)");
+    auto r = root.begin();
+    for (auto p = resolved.begin(); r != root.end(); ++r, ++p)
+        if (p == resolved.end() || *p != *r)
+            fail(where, "{} '{}' lies outside {}, the folder this object's files may come from (the scene's files_root for the object widens it)",
+                 what, printable(reference, 80), root.string());
+    if (!fs::is_regular_file(resolved, ec)) fail(where, "{} '{}' is not a regular file", what, printable(reference, 80));
+    return resolved;
+}
+
+std::map<std::string, ObjMaterial> read_mtl(const fs::path& file, const fs::path& files_root) {
+    const std::vector<std::string> lines = lines_of(read_file_bytes(file, std::uintmax_t(1) << 28));
     std::map<std::string, ObjMaterial> out;
     ObjMaterial* current = nullptr;
     for (std::size_t n = 0; n < lines.size(); ++n) {
         const std::string where = fmt::format("{}:{}", file.string(), n + 1);
         const auto w = words(lines[n]);
         if (w.empty() || w[0][0] == '#') continue;
+        if (names_a_file(w[0])) {
+            if (w.size() < 2) fail(where, "{} needs a file", printable(w[0]));
+            const fs::path named = confined_reference(file.parent_path(), last_word(w), files_root, where, w[0] == "map_Kd" ? "texture" : "file");
+            if (w[0] == "map_Kd" && current) current->texture = named;
+        }
         if (w[0] == "newmtl") {
             if (w.size() < 2) fail(where, "newmtl needs a name");
             current = &out[w[1]];
@@ -121,29 +146,30 @@ std::map<std::string, ObjMaterial> read_mtl(const fs::path& file) {
             for (std::size_t c = 0; c < 3; ++c) current->colour[c] = std::clamp(kd[c], 0.0, 1.0);
         } else if (w[0] == "d") {
             current->colour[3] = std::clamp(numbers<1>(w, 1, where)[0], 0.0, 1.0);
-        } else if (w[0] == "map_Kd") {
-            if (w.size() < 2) fail(where, "map_Kd needs a file");
-            current->texture = file.parent_path() / last_word(w);
-            if (!fs::is_regular_file(current->texture)) fail(where, "texture '{}' is not a file", current->texture.string());
         }
     }
     return out;
 }
 
-std::vector<std::string> mtl_references(const fs::path& file) {
-    std::vector<std::string> out;
-    for (const std::string& line : lines_of(read_file_bytes(file))) {
-        const auto w = words(line);
-        if (w.size() >= 2 && names_a_file(w[0])) out.push_back(last_word(w));
+std::vector<fs::path> mtl_references(const fs::path& file, const fs::path& files_root) {
+    std::vector<fs::path> out;
+    const std::vector<std::string> lines = lines_of(read_file_bytes(file, std::uintmax_t(1) << 28));
+    for (std::size_t n = 0; n < lines.size(); ++n) {
+        const auto w = words(lines[n]);
+        if (w.size() >= 2 && names_a_file(w[0]))
+            out.push_back(confined_reference(file.parent_path(), last_word(w), files_root, fmt::format("{}:{}", file.string(), n + 1),
+                                             w[0] == "map_Kd" ? "texture" : "file"));
     }
     return out;
 }
 
-ObjAppearance read_obj_appearance(const fs::path& file) {
+ObjAppearance read_obj_appearance(const fs::path& file, const fs::path& files_root) {
+    const fs::path root = files_root.empty() ? file.parent_path() : files_root;
     const std::vector<std::string> lines = lines_of(read_file_bytes(file));
     ObjAppearance obj;
     obj.file = file;
     std::size_t group = 0;
+    std::vector<fs::path> libraries;
     auto use = [&](const std::string& name) {
         for (std::size_t g = 0; g < obj.by_material.size(); ++g)
             if (obj.by_material[g].first == name) return g;
@@ -167,7 +193,10 @@ ObjAppearance read_obj_appearance(const fs::path& file) {
             if (w.size() < 2) fail(where, "usemtl needs a material name");
             group = use(w[1]);
         } else if (w[0] == "mtllib") {
-            for (std::size_t i = 1; i < w.size(); ++i) obj.mtllibs.push_back(w[i]);
+            for (std::size_t i = 1; i < w.size(); ++i) {
+                obj.mtllibs.push_back(w[i]);
+                libraries.push_back(confined_reference(file.parent_path(), w[i], root, where, "material library"));
+            }
         } else if (w[0] == "f") {
             if (w.size() < 4) fail(where, "a face needs at least 3 corners");
             if (obj.by_material.empty()) group = use("");
@@ -176,11 +205,8 @@ ObjAppearance read_obj_appearance(const fs::path& file) {
             for (std::size_t i = 1; i + 1 < corners.size(); ++i) obj.by_material[group].second.push_back({corners[0], corners[i], corners[i + 1]});
         }
     }
-    for (const std::string& lib : obj.mtllibs) {
-        const fs::path mtl = file.parent_path() / lib;
-        if (!fs::is_regular_file(mtl)) fail(file.string(), "material library '{}' is not a file", mtl.string());
-        for (auto& [name, material] : read_mtl(mtl)) obj.materials.emplace(name, material);
-    }
+    for (const fs::path& mtl : libraries)
+        for (auto& [name, material] : read_mtl(mtl, root)) obj.materials.emplace(name, material);
     for (const auto& [name, triangles] : obj.by_material)
         if (!name.empty() && !obj.mtllibs.empty() && !obj.materials.count(name))
             fail(file.string(), "material '{}' is used but no material library defines it", printable(name));

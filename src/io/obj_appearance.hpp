@@ -40,13 +40,23 @@ struct ObjAppearance {
 // True for a file named *.obj (any case).
 bool is_obj_file(const std::filesystem::path& file);
 
+// Every file an OBJ or MTL names (mtllib, map_Kd, bump, ...) is untrusted: it must be a relative
+// path that resolves (links followed) to a regular file inside `files_root`, by default the folder
+// of the OBJ file itself (a scene widens it with an object's `files_root`). Anything else (an
+// absolute path, "../../x" out of the folder, a link out of it) fails naming the file and line.
+// `what` names the reference in messages ("material library", "texture").
+std::filesystem::path confined_reference(const std::filesystem::path& from_folder, const std::string& reference,
+                                         const std::filesystem::path& files_root, const std::string& where, const char* what);
+
 // Reads an OBJ's geometry and appearance, and the materials of its mtllib files. Fails naming
-// the file and line on a malformed number, an index out of range, or a missing material library.
-ObjAppearance read_obj_appearance(const std::filesystem::path& file);
+// the file and line on a malformed number, an index out of range, a missing material library, or a
+// named file outside `files_root` (empty: the OBJ's folder).
+ObjAppearance read_obj_appearance(const std::filesystem::path& file, const std::filesystem::path& files_root = {});
 // Every material of an MTL file (Kd, d, map_Kd with its options); fails naming the file and line.
-std::map<std::string, ObjMaterial> read_mtl(const std::filesystem::path& file);
-// The files an MTL file refers to (map_*, bump, disp, decal, refl, norm), as written.
-std::vector<std::string> mtl_references(const std::filesystem::path& file);
+std::map<std::string, ObjMaterial> read_mtl(const std::filesystem::path& file, const std::filesystem::path& files_root);
+// The files an MTL file refers to (map_*, bump, disp, decal, refl, norm), each confined to
+// `files_root` and resolved.
+std::vector<std::filesystem::path> mtl_references(const std::filesystem::path& file, const std::filesystem::path& files_root);
 
 // The OBJ text of `file` with each `v` line's position p replaced by point(p), each `vn` line's
 // normal n by direction(n), and each `mtllib` file name f by rename(f); every other line kept.

@@ -13,6 +13,7 @@
 #include "src/core/error.hpp"
 #include "src/edit/frame_check.hpp"
 #include "src/results/edit_files.hpp"
+#include "src/results/key_views.hpp"
 #include "src/results/party_files.hpp"
 #include "src/results/scene_glb.hpp"
 
@@ -194,7 +195,8 @@ std::vector<KeyView> key_views(const Scene& scene, const PartyEdit& party) {
         for (const TimelineSegment& segment : stage.edit.timeline.segments) {
             if (!segment.key || segment.length == 0) continue;
             const KeySegment& key = scene.segments[std::size_t(segment.key - 1)];
-            views.push_back({segment.key, segment.first + segment.length / 2, index_of(party.names, key.pair[0]), index_of(party.names, key.pair[1])});
+            views.push_back({segment.key, segment.first + segment.length / 2, index_of(party.names, key.pair[0]), index_of(party.names, key.pair[1]),
+                             segment.first, segment.first + segment.length - 1});
         }
     std::sort(views.begin(), views.end(), [](const KeyView& x, const KeyView& y) { return x.key < y.key; });
     return views;
@@ -292,8 +294,9 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     if (options.frames) files.mesh_files = results::write_party_frames(out / "frames", party.names, party.frames, pointers);
     std::vector<const std::vector<ObjectFrameEdit>*> frame_lists;
     for (const auto& frames : party.frames) frame_lists.push_back(&frames);
-    const std::vector<KeyView> views = key_views(scene, party);
-    results::write_party_key_views(out / "views", views, party.frames, pointers);
+    std::vector<KeyView> views = key_views(scene, party);
+    choose_meeting_frames(scene, views, frame_lists, pointers);
+    write_key_views(out / "views", scene, party.names, views, frame_lists, pointers);
     write_eye_views(out / "views", scene, party.names, views, frame_lists, pointers);
     write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party));
     const std::vector<std::string> bvh = write_edited_bvh(out, party.names, frame_lists, pointers);

@@ -10,8 +10,10 @@
 #include <nlohmann/json.hpp>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/results/solutions_csv.hpp"
+#include "src/io/json_problem.hpp"
 
 namespace amhv::pipeline {
 
@@ -37,7 +39,7 @@ PoseDescriber facings_of(const fs::path& dir, int segment, const results::GroupL
                 return describe;
             }
     } catch (const nlohmann::json::exception& e) {
-        fail(file.string(), "is not a sweep's result.json ({})", e.what());
+        fail(file.string(), "is not a sweep's result.json ({})", json_problem(e));
     }
     fail(file.string(), "has no key segment {}", segment);
 }
@@ -81,6 +83,10 @@ void export_group_csv(const GroupRead& group, const fs::path& path) {
     if (fs::exists(fs::symlink_status(path))) fail(path.string(), "exists: amhv does not overwrite a file it did not create");
     const fs::path partial = path.parent_path() / (".partial-" + path.filename().string());
     if (fs::exists(fs::symlink_status(partial))) fail(partial.string(), "exists: remove it (a run that stopped) or write elsewhere");
+    // A row is at most about 100 characters: the whole file must fit the disk before a byte is
+    // written (a crafted group of billions of members is refused here, not after filling the disk).
+    budget::require_disk(path.parent_path().empty() ? fs::path(".") : path.parent_path(), group.group.size() * 100,
+                         fmt::format("{} ({} solutions)", path.string(), group.group.size()), "write fewer solutions or free some disk");
     // The group is held in the sweep's order (z, theta, y, x): the rows come out as the sweep writes them.
     try {
         write_solutions_csv(partial, group.group, group.describe);

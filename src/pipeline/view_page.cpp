@@ -1,9 +1,5 @@
 #include "src/pipeline/view_page.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <fstream>
@@ -15,6 +11,7 @@
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
 #include "src/pipeline/solutions_export.hpp"
+#include "src/io/json_problem.hpp"
 #include "embedded/page_files.h"
 
 namespace amhv::pipeline {
@@ -52,7 +49,7 @@ Json read_json(const fs::path& file) {
     try {
         return Json::parse(read_file_bytes(file));
     } catch (const Json::exception& e) {
-        fail(file.string(), "is not the JSON amhv wrote ({})", e.what());
+        fail(file.string(), "is not the JSON amhv wrote ({})", json_problem(e));
     }
 }
 
@@ -131,71 +128,6 @@ PageReport write_view_page(const fs::path& dir, const fs::path& out) {
     report.bytes = fs::file_size(out / "index.html");
     for (const auto& entry : fs::directory_iterator(view)) report.bytes += entry.file_size();
     return report;
-}
-
-namespace {
-
-std::string content_type(const fs::path& file) {
-    const std::string ext = file.extension().string();
-    if (ext == ".html") return "text/html; charset=utf-8";
-    if (ext == ".js") return "text/javascript; charset=utf-8";
-    if (ext == ".json") return "application/json";
-    if (ext == ".png") return "image/png";
-    if (ext == ".glb") return "model/gltf-binary";
-    if (ext == ".svg") return "image/svg+xml";
-    return "application/octet-stream";
-}
-
-// One request on `client`: a GET of a file below `dir` (no "..", no escapes), else 404 or 405.
-void answer(int client, const fs::path& dir) {
-    char buffer[4096];
-    const ssize_t got = ::recv(client, buffer, sizeof(buffer) - 1, 0);
-    if (got <= 0) return;
-    const std::string request(buffer, std::size_t(got));
-    const std::size_t space = request.find(' '), end = request.find(' ', space + 1);
-    std::string status = "404 Not Found", body = "not found\n", type = "text/plain";
-    if (request.rfind("GET ", 0) != 0 || space == std::string::npos || end == std::string::npos) {
-        status = "405 Method Not Allowed", body = "GET only\n";
-    } else {
-        std::string path = request.substr(space + 1, end - space - 1);
-        path = path.substr(0, path.find_first_of("?#"));
-        if (path == "/") path = "/index.html";
-        const fs::path file = dir / path.substr(1);
-        if (path.find("..") == std::string::npos && path.find('%') == std::string::npos && fs::is_regular_file(file)) {
-            status = "200 OK", body = read_file_bytes(file), type = content_type(file);
-        }
-    }
-    const std::string head = fmt::format("HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n", status, type, body.size());
-    const std::string reply = head + body;
-    for (std::size_t sent = 0; sent < reply.size();) {
-        const ssize_t n = ::send(client, reply.data() + sent, reply.size() - sent, MSG_NOSIGNAL);
-        if (n <= 0) break;
-        sent += std::size_t(n);
-    }
-}
-
-}  // namespace
-
-void serve_folder(const fs::path& dir, int port) {
-    if (port < 1 || port > 65535) throw Error(fmt::format("--serve: {} is not a port (1..65535)", port));
-    if (!fs::is_regular_file(dir / "index.html")) fail(dir.string(), "has no index.html to serve");
-    const int server = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (server < 0) throw Error("--serve: cannot open a socket");
-    const int yes = 1;
-    ::setsockopt(server, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(std::uint16_t(port));
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);  // this machine only
-    if (::bind(server, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0 || ::listen(server, 16) != 0)
-        throw Error(fmt::format("--serve: cannot listen on 127.0.0.1:{} (in use?)", port));
-    std::cout << fmt::format("serving {} at http://127.0.0.1:{}/ (Ctrl-C stops)", dir.string(), port) << std::endl;
-    for (;;) {
-        const int client = ::accept(server, nullptr, nullptr);
-        if (client < 0) continue;
-        answer(client, dir);
-        ::close(client);
-    }
 }
 
 }  // namespace amhv::pipeline

@@ -25,7 +25,4 @@ struct PageReport {
 // `dir` itself).
 PageReport write_view_page(const std::filesystem::path& dir, const std::filesystem::path& out);
 
-// Serves `dir` on 127.0.0.1:`port` (GET of files below it; nothing else) until the process ends.
-[[noreturn]] void serve_folder(const std::filesystem::path& dir, int port);
-
 }  // namespace amhv::pipeline

@@ -21,7 +21,7 @@ fs::path source_frame_file(const ObjectSource& source, int number) {
 bool has_obj_appearance(const ObjectSource& source) {
     if (source.spec().meshes.empty()) return false;
     const fs::path first = source_frame_file(source, source.spec().frame_first);
-    return is_obj_file(first) && read_obj_appearance(first).has_appearance();
+    return is_obj_file(first) && read_obj_appearance(first, source.spec().files_root).has_appearance();
 }
 
 FileSpaceMove file_space_move(const EditResult& edit, int k, int object, const ObjectSource& source) {
@@ -54,19 +54,18 @@ fs::path common_folder(const std::vector<fs::path>& paths) {
     return common;
 }
 
-// Every material library of the frames and every file those name, absolute and normalised.
-std::vector<fs::path> material_files(const std::vector<fs::path>& frames) {
+// Every material library of the frames and every file those name, absolute and resolved, each
+// inside the object's files root (src/io/obj_appearance.hpp).
+std::vector<fs::path> material_files(const std::vector<fs::path>& frames, const fs::path& files_root) {
     std::set<fs::path> files;
-    for (const fs::path& frame : frames)
-        for (const std::string& lib : read_obj_appearance(frame).mtllibs) {
-            const fs::path mtl = fs::weakly_canonical(frame.parent_path() / lib);
+    for (const fs::path& frame : frames) {
+        const fs::path root = files_root.empty() ? frame.parent_path() : files_root;
+        for (const std::string& lib : read_obj_appearance(frame, files_root).mtllibs) {
+            const fs::path mtl = confined_reference(frame.parent_path(), lib, root, frame.string(), "material library");
             if (!files.insert(mtl).second) continue;
-            for (const std::string& ref : mtl_references(mtl)) {
-                const fs::path file = fs::weakly_canonical(mtl.parent_path() / ref);
-                if (!fs::is_regular_file(file)) fail(mtl.string(), "'{}' is not a file", file.string());
-                files.insert(file);
-            }
+            for (const fs::path& file : mtl_references(mtl, root)) files.insert(file);
         }
+    }
     return {files.begin(), files.end()};
 }
 
@@ -77,7 +76,7 @@ int write_object_obj_frames(const fs::path& folder, const EditResult& edit, int 
         frames.push_back(fs::weakly_canonical(source_frame_file(source, edit.frames[std::size_t(object)][std::size_t(k)].source)));
     // The materials keep their layout below the folder that holds them and every frame, so the
     // libraries' own references to textures stay right.
-    const std::vector<fs::path> materials = material_files(frames);
+    const std::vector<fs::path> materials = material_files(frames, source.spec().files_root);
     std::vector<fs::path> everything = frames;
     everything.insert(everything.end(), materials.begin(), materials.end());
     const fs::path root = common_folder(everything);
@@ -94,7 +93,8 @@ int write_object_obj_frames(const fs::path& folder, const EditResult& edit, int 
         const fs::path& frame = frames[std::size_t(k)];
         const FileSpaceMove move = file_space_move(edit, k, object, source);
         auto rename = [&](const std::string& lib) {
-            return (store / fs::weakly_canonical(frame.parent_path() / lib).lexically_relative(root)).generic_string();
+            const fs::path files_root = source.spec().files_root.empty() ? frame.parent_path() : source.spec().files_root;
+            return (store / confined_reference(frame.parent_path(), lib, files_root, frame.string(), "material library").lexically_relative(root)).generic_string();
         };
         const std::string text = transformed_obj_text(
             frame, [&](const Vec3& p) { return move.point(p); }, [&](const Vec3& n) { return move.direction(n); }, rename);

@@ -17,6 +17,8 @@
 #include "src/core/parallel.hpp"
 #include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
+#include "src/results/key_views.hpp"
+#include "src/results/picture.hpp"
 
 namespace amhv {
 
@@ -30,83 +32,7 @@ std::string segment_name(const TimelineSegment& s, int index) {
     return s.key ? fmt::format("key {}", s.key) : fmt::format("transition {}", index / 2);
 }
 
-// One flat-shaded triangle of a performer's colour; the thin outline closes the hairline gaps
-// antialiasing leaves between neighbouring triangles.
-void fill_triangle(cairo_t* cr, const std::array<Eigen::Vector2d, 3>& corners, double shade, const std::array<std::uint8_t, 3>& colour) {
-    cairo_set_source_rgb(cr, shade * colour[0] / 255.0, shade * colour[1] / 255.0, shade * colour[2] / 255.0);
-    for (int c = 0; c < 3; ++c) (c ? cairo_line_to : cairo_move_to)(cr, corners[std::size_t(c)].x(), corners[std::size_t(c)].y());
-    cairo_close_path(cr);
-    cairo_fill_preserve(cr);
-    cairo_set_line_width(cr, 0.5);
-    cairo_stroke(cr);
-}
 
-// Ends the drawing and writes the surface as `path`; throws naming the file when it cannot.
-void finish_png(cairo_t* cr, cairo_surface_t* surface, const fs::path& path) {
-    cairo_destroy(cr);
-    const cairo_status_t status = cairo_surface_write_to_png(surface, path.string().c_str());
-    cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS) fail(path.string(), "cannot write the PNG ({})", cairo_status_to_string(status));
-}
-
-// ---- the paths picture: one list of shapes drawn into SVG text and into a cairo PNG ----
-
-struct Shape {
-    enum class Kind { Line, Circle, Text } kind = Kind::Line;
-    std::vector<Eigen::Vector2d> points;  // picture coordinates (pixels, y down)
-    std::array<std::uint8_t, 3> colour{0, 0, 0};
-    double width = 1, radius = 0, opacity = 1;
-    bool dashed = false;
-    std::string text;
-};
-
-void draw_svg(const fs::path& path, int w, int h, const std::vector<Shape>& shapes) {
-    std::ofstream out(path);
-    if (!out) fail(path.string(), "cannot write");
-    out << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" viewBox=\"0 0 {} {}\">\n", w, h, w, h);
-    out << fmt::format("<rect width=\"{}\" height=\"{}\" fill=\"white\"/>\n", w, h);
-    for (const Shape& s : shapes) {
-        const std::string rgb = fmt::format("rgb({},{},{})", s.colour[0], s.colour[1], s.colour[2]);
-        if (s.kind == Shape::Kind::Line) {
-            std::string points;
-            for (const auto& p : s.points) points += fmt::format("{}{:.2f},{:.2f}", points.empty() ? "" : " ", p.x(), p.y());
-            out << fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-opacity=\"{}\"{} "
-                               "stroke-linecap=\"round\" stroke-linejoin=\"round\"/>\n",
-                               points, rgb, s.width, s.opacity, s.dashed ? " stroke-dasharray=\"6 4\"" : "");
-        } else if (s.kind == Shape::Kind::Circle) {
-            out << fmt::format("<circle cx=\"{:.2f}\" cy=\"{:.2f}\" r=\"{}\" fill=\"{}\"/>\n", s.points[0].x(), s.points[0].y(), s.radius, rgb);
-        } else {
-            out << fmt::format("<text x=\"{:.2f}\" y=\"{:.2f}\" font-family=\"sans-serif\" font-size=\"14\" fill=\"{}\">{}</text>\n",
-                               s.points[0].x(), s.points[0].y(), rgb, s.text);
-        }
-    }
-    out << "</svg>\n";
-    finish_file(out, path);
-}
-
-void draw_png(const fs::path& path, int w, int h, const std::vector<Shape>& shapes) {
-    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, w, h);
-    cairo_t* cr = cairo_create(surface);
-    cairo_set_source_rgb(cr, 1, 1, 1);
-    cairo_paint(cr);
-    cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
-    cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
-    for (const Shape& s : shapes) {
-        cairo_set_source_rgba(cr, s.colour[0] / 255.0, s.colour[1] / 255.0, s.colour[2] / 255.0, s.opacity);
-        if (s.kind == Shape::Kind::Line) {
-            const double dash[2] = {6, 4};
-            cairo_set_dash(cr, dash, s.dashed ? 2 : 0, 0);
-            cairo_set_line_width(cr, s.width);
-            for (std::size_t k = 0; k < s.points.size(); ++k)
-                (k ? cairo_line_to : cairo_move_to)(cr, s.points[k].x(), s.points[k].y());
-            cairo_stroke(cr);
-        } else if (s.kind == Shape::Kind::Circle) {
-            cairo_arc(cr, s.points[0].x(), s.points[0].y(), s.radius, 0, 2 * kPi);
-            cairo_fill(cr);
-        }  // text only in the SVG: PNG bytes must not depend on the fonts a machine has
-    }
-    finish_png(cr, surface, path);
-}
 
 }  // namespace
 
@@ -208,71 +134,18 @@ int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSou
     return edit.timeline.length();
 }
 
-void draw_side_view(const fs::path& path, const TriangleMesh& mesh, const std::vector<std::size_t>& faces_from, const Eigen::Vector2d& across) {
-    // Look across the line between the two roots, so that the two stand side by side.
-    const Eigen::Vector2d right = across.norm() > 1e-6 ? across.normalized() : Eigen::Vector2d::UnitX();
-    const Vec3 u(right.x(), right.y(), 0), view(right.y(), -right.x(), 0);  // view: from the camera into the picture
-    Eigen::AlignedBox2d extent;
-    for (const Vec3& v : mesh.vertices) extent.extend(Eigen::Vector2d(v.dot(u), v.z()));
-    extent.extend(Eigen::Vector2d(extent.min().x(), 0.0));  // the floor
-    constexpr int kWidth = 800, kHeight = 600, kMargin = 30;
-    const double scale = std::min((kWidth - 2 * kMargin) / extent.sizes().x(), (kHeight - 2 * kMargin) / extent.sizes().y());
-    const Eigen::Vector2d offset(0.5 * (kWidth - scale * extent.sizes().x()), 0.5 * (kHeight - scale * extent.sizes().y()));
-    auto pixel = [&](const Vec3& v) {
-        return Eigen::Vector2d(offset.x() + (v.dot(u) - extent.min().x()) * scale, kHeight - offset.y() - (v.z() - extent.min().y()) * scale);
-    };
-    // Painter's algorithm: far triangles first; equal depths keep mesh order (same bytes on every run).
-    std::vector<std::pair<double, std::size_t>> order(mesh.triangles.size());
-    for (std::size_t t = 0; t < order.size(); ++t) {
-        const auto& tri = mesh.triangles[t];
-        order[t] = {-(mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]).dot(view), t};
-    }
-    std::sort(order.begin(), order.end());
-    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, kWidth, kHeight);
-    cairo_t* cr = cairo_create(surface);
-    cairo_set_source_rgb(cr, 1, 1, 1);
-    cairo_paint(cr);
-    const Vec3 light = Vec3(-view.x() * 0.8 + 0.3 * u.x(), -view.y() * 0.8 + 0.3 * u.y(), 0.6).normalized();
-    for (const auto& [depth, t] : order) {
-        const auto& tri = mesh.triangles[t];
-        const Vec3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
-        if (normal.norm() < 1e-15 || normal.dot(view) > 0) continue;  // degenerate or facing away
-        const double shade = 0.35 + 0.65 * std::max(0.0, normal.normalized().dot(light));
-        const std::size_t object = std::size_t(std::upper_bound(faces_from.begin() + 1, faces_from.end(), t) - faces_from.begin() - 1);
-        fill_triangle(cr, {pixel(mesh.vertices[tri[0]]), pixel(mesh.vertices[tri[1]]), pixel(mesh.vertices[tri[2]])}, shade,
-                      kObjectColours[object % kObjectColours.size()]);
-    }
-    const double floor_y = pixel(Vec3(0, 0, 0)).y();
-    cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
-    cairo_set_line_width(cr, 1);
-    cairo_move_to(cr, kMargin / 2.0, floor_y + 0.5);
-    cairo_line_to(cr, kWidth - kMargin / 2.0, floor_y + 0.5);
-    cairo_stroke(cr);
-    finish_png(cr, surface, path);
-}
-
-std::vector<int> write_key_views(const fs::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
-    fs::create_directories(folder);
-    // The frames are gathered on this thread (an ObjectSource caches as it reads); the pictures,
-    // mostly PNG compression, are drawn on every core.
-    struct KeyPicture {
-        fs::path path;
-        EditedFrame frame;
-        Eigen::Vector2d between;
-    };
+std::vector<int> write_key_and_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+    std::vector<KeyView> views;
+    for (const TimelineSegment& segment : edit.timeline.segments)
+        if (segment.key && segment.length > 0)
+            views.push_back({segment.key, segment.first + segment.length / 2, 0, 1, segment.first, segment.first + segment.length - 1});
+    const std::vector<const std::vector<ObjectFrameEdit>*> frames{&edit.frames[0], &edit.frames[1]};
+    const std::vector<ObjectSource*> sources{&a, &b};
+    choose_meeting_frames(scene, views, frames, sources);
+    write_key_views(folder, scene, {"A", "B"}, views, frames, sources);
+    write_eye_views(folder, scene, {"A", "B"}, views, frames, sources);
     std::vector<int> shown;
-    std::vector<KeyPicture> pictures;
-    for (const TimelineSegment& segment : edit.timeline.segments) {
-        if (!segment.key || segment.length == 0) continue;
-        const int k = segment.first + segment.length / 2;
-        shown.push_back(k);
-        pictures.push_back({folder / fmt::format("key_{}.png", segment.key), edited_frame(edit, k, a, b),
-                            edit.frames[1][std::size_t(k)].edited_root - edit.frames[0][std::size_t(k)].edited_root});
-    }
-    parallel_for(pictures.size(), [&pictures](std::size_t p) {
-        const KeyPicture& picture = pictures[p];
-        draw_side_view(picture.path, picture.frame.both, {picture.frame.faces_from.begin(), picture.frame.faces_from.end()}, picture.between);
-    });
+    for (const KeyView& v : views) shown.push_back(v.frame);
     return shown;
 }
 
@@ -350,17 +223,9 @@ void draw_eye_view(const fs::path& path, const EyeCamera& c, const TriangleMesh&
     cairo_set_line_width(cr, 2);
     cairo_arc(cr, kEyeSize / 2.0, kEyeSize / 2.0, kCone, 0, 2 * std::numbers::pi);
     cairo_stroke(cr);
-    cairo_move_to(cr, 10, 20);
-    cairo_set_font_size(cr, 14);
-    cairo_show_text(cr, caption.c_str());
+    cairo_set_source_rgb(cr, 0.1, 0.1, 0.1);
+    draw_text(cr, 10, 20, caption, 14);
     finish_png(cr, surface, path);
-}
-
-void write_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
-    std::vector<KeyView> views;
-    for (const TimelineSegment& segment : edit.timeline.segments)
-        if (segment.key && segment.length > 0) views.push_back({segment.key, segment.first + segment.length / 2, 0, 1});
-    write_eye_views(folder, scene, {"A", "B"}, views, {&edit.frames[0], &edit.frames[1]}, {&a, &b});
 }
 
 void write_eye_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
@@ -480,101 +345,6 @@ void write_paths_picture(const fs::path& svg, const fs::path& png, const EditRes
     for (const TimelineSegment& seg : edit.timeline.segments)
         if (seg.key && seg.length > 0) keys.push_back({seg.key, seg.first, seg.length});
     write_paths_picture(svg, png, {{"A", &edit.frames[0], keys}, {"B", &edit.frames[1], keys}});
-}
-
-namespace {
-
-// One object's captured and edited root paths with facing ticks every 10 output frames, and its
-// key segments thick and numbered, in `colour`.
-void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, std::array<std::uint8_t, 3> colour,
-                      const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& pixel) {
-    const auto& frames = *object.frames;
-    const int length = int(frames.size());
-    for (int edited = 0; edited < 2; ++edited) {
-        Shape line;
-        line.colour = colour;
-        line.width = edited ? 2 : 1.5;
-        line.dashed = !edited;
-        line.opacity = edited ? 1 : 0.6;
-        for (const auto& f : frames) line.points.push_back(pixel(edited ? f.edited_root : f.original_root));
-        shapes.push_back(line);
-        // Facing ticks every 10 output frames: 14 pixels along the facing.
-        for (int k = 0; k < length; k += 10) {
-            const auto& f = frames[std::size_t(k)];
-            const Eigen::Vector2d root = edited ? f.edited_root : f.original_root;
-            const double facing = edited ? f.edited_facing : f.original_facing;
-            Shape tick;
-            tick.colour = colour;
-            tick.width = 1;
-            tick.opacity = line.opacity;
-            tick.points = {pixel(root), pixel(root) + 14 * Eigen::Vector2d(std::cos(facing), -std::sin(facing))};
-            shapes.push_back(tick);
-        }
-    }
-    // Key segments: thick on the edited path, numbered at their first frame.
-    for (const auto& [key, first, count] : object.keys) {
-        Shape thick;
-        thick.colour = colour;
-        thick.width = 6;
-        for (int m = first; m < first + count; ++m) thick.points.push_back(pixel(frames[std::size_t(m)].edited_root));
-        if (thick.points.size() == 1) thick.points.push_back(thick.points.front());
-        shapes.push_back(thick);
-        Shape dot;
-        dot.kind = Shape::Kind::Circle;
-        dot.colour = colour;
-        dot.radius = 4;
-        dot.points = {pixel(frames[std::size_t(first)].edited_root)};
-        shapes.push_back(dot);
-        Shape label;
-        label.kind = Shape::Kind::Text;
-        label.colour = colour;
-        label.points = {dot.points[0] + Eigen::Vector2d(6, -6)};
-        label.text = fmt::format("{}{}", object.name, key);
-        shapes.push_back(label);
-    }
-}
-
-}  // namespace
-
-void write_paths_picture(const fs::path& svg, const fs::path& png, const std::vector<PathsObject>& objects) {
-    Eigen::AlignedBox2d world;
-    for (const PathsObject& object : objects)
-        for (const ObjectFrameEdit& f : *object.frames) {
-            world.extend(f.original_root);
-            world.extend(f.edited_root);
-        }
-    world.min() -= Eigen::Vector2d::Constant(0.5);
-    world.max() += Eigen::Vector2d::Constant(0.5);
-    const int width = 1000, margin = 40, max_height = 1400;
-    const double s = std::min((width - 2 * margin) / std::max(world.sizes().x(), 1e-6), (max_height - 2 * margin - 30) / std::max(world.sizes().y(), 1e-6));
-    const int height = int(std::ceil(world.sizes().y() * s)) + 2 * margin + 30;
-    const std::function<Eigen::Vector2d(const Eigen::Vector2d&)> pixel = [&](const Eigen::Vector2d& p) {
-        return Eigen::Vector2d(margin + (p.x() - world.min().x()) * s, height - margin - (p.y() - world.min().y()) * s);
-    };
-    std::vector<Shape> shapes;
-    std::vector<std::string> named;
-    for (std::size_t o = 0; o < objects.size(); ++o) {
-        add_object_paths(shapes, objects[o], kObjectColours[o % kObjectColours.size()], pixel);
-        named.push_back(fmt::format("{} {}", objects[o].name, kObjectColourNames[o % kObjectColourNames.size()]));
-    }
-    // Legend and a 1 m scale bar.
-    Shape legend;
-    legend.kind = Shape::Kind::Text;
-    legend.points = {Eigen::Vector2d(margin, 22)};
-    legend.text = fmt::format("top view, metres: {}; dashed = captured (at the editor's placement), solid = edited; thick = key segments",
-                              fmt::join(named, ", "));
-    shapes.push_back(legend);
-    Shape bar;
-    bar.width = 2;
-    bar.points = {Eigen::Vector2d(width - margin - s, height - 15), Eigen::Vector2d(width - margin, height - 15)};
-    shapes.push_back(bar);
-    Shape bar_label;
-    bar_label.kind = Shape::Kind::Text;
-    bar_label.points = {Eigen::Vector2d(width - margin - s, height - 20)};
-    bar_label.text = "1 m";
-    shapes.push_back(bar_label);
-    draw_svg(svg, width, height, shapes);
-    draw_png(png, width, height, shapes);
 }
 
 }  // namespace amhv

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "src/edit/edit.hpp"
+#include "src/results/paths_picture.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 
@@ -19,11 +20,6 @@ namespace amhv {
 inline constexpr std::array<std::array<std::uint8_t, 3>, 6> kObjectColours{
     {{230, 120, 40}, {40, 120, 230}, {60, 170, 80}, {150, 80, 190}, {220, 190, 40}, {200, 60, 90}}};
 inline constexpr std::array<const char*, 6> kObjectColourNames{"orange", "blue", "green", "purple", "yellow", "red"};
-
-// `path`: `mesh` seen from the side, looking across the floor direction `across` (flat shaded, the
-// floor grey); triangles [faces_from[o], faces_from[o + 1]) in object o's colour.
-void draw_side_view(const std::filesystem::path& path, const TriangleMesh& mesh, const std::vector<std::size_t>& faces_from,
-                    const Eigen::Vector2d& across);
 
 // A pinhole camera at a performer's eye (docs/method.md section 10): the visibility cone's
 // half-angle reaches a circle of 170 pixels (kCone) around the picture's centre.
@@ -58,20 +54,21 @@ void write_frame_checks_csv(const std::filesystem::path& path, const EditResult&
 // comments give each object's vertex and face ranges. Returns the number of files.
 int write_scene_frames(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
-// `folder`/key_N.png: the middle output frame of each key segment N, the two objects' edited
-// meshes from the side (looking across the line between their roots, flat shaded, A orange, B
-// blue, the floor grey), for a quick look without a mesh viewer. Returns the frames shown.
-std::vector<int> write_key_views(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+// The key views and eye views of a two-object edit, at the frame of each key segment where the
+// parts meet (src/results/key_views.hpp). Returns the frames shown.
+std::vector<int> write_key_and_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
 // `folder`/key_N_from_A.png and key_N_from_B.png: the paper's first-person views (its Fig. 8) at
 // the middle output frame of key segment N: from each performer's eye (its view track, moved with
 // it) along its gaze, the other performer shaded, the floor grid, and the visibility cone's
 // half-angle as a circle around the centre.
-void write_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
-// A key segment's middle output frame `frame` and its pair (indices of the objects).
+// A key segment's view: the output frame `frame` it shows (its middle, until choose_meeting_frames
+// picks the frame where the pair's parts come closest), the segment's output frames
+// [first_frame, last_frame], and its pair (indices of the objects).
 struct KeyView {
     int key = 0, frame = 0;
     std::size_t first = 0, second = 0;
+    int first_frame = 0, last_frame = -1;
 };
 // The same for any number of objects: `folder`/key_N_from_NAME.png for each of a key view's pair,
 // every other object in its colour; `frames[o]` is object o's per output frame.
@@ -88,19 +85,7 @@ std::vector<std::string> write_edited_bvh(const std::filesystem::path& folder, c
 std::vector<std::string> write_edited_bvh(const std::filesystem::path& folder, const std::vector<std::string>& names,
                                           const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources);
 
-// paths.svg and paths.png: the root paths seen from above, captured (dashed, at the editor's
-// placements) and edited (solid), A orange and B blue; key segments drawn thick and numbered (SVG),
-// facings as ticks every 10 output frames. The PNG is the same drawing without text.
+// paths.svg and paths.png for a two-object edit (src/results/paths_picture.hpp).
 void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const EditResult& edit);
-// One object of a paths picture: its frames and its key segments (index, first output frame,
-// length), drawn thick on its edited path and numbered.
-struct PathsObject {
-    std::string name;
-    const std::vector<ObjectFrameEdit>* frames = nullptr;
-    std::vector<std::array<int, 3>> keys;
-};
-// The same for any number of objects, over their output frames, which every object has the same
-// number of (the two-object picture is this with A and B sharing every key segment).
-void write_paths_picture(const std::filesystem::path& svg, const std::filesystem::path& png, const std::vector<PathsObject>& objects);
 
 }  // namespace amhv

@@ -11,6 +11,7 @@
 #include <openvdb/io/Stream.h>
 
 #include "src/core/angles.hpp"
+#include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
 
@@ -47,6 +48,7 @@ std::uint64_t fnv1a(std::string_view bytes) {
 openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path) {
     openvdb::initialize();
     const std::string where = path.string();
+    const ReadingFile reading(where);
     if (!std::filesystem::is_regular_file(path)) fail(where, "cannot open the solution group");
     try {
         // From memory as a stream: io::File on a truncated file can spend seconds or hang in its
@@ -72,10 +74,43 @@ void check_grid_lattice(const openvdb::BoolGrid& grid, const GroupLattice& expec
         fail(where, "grid {} is the group of another scene (scene_hash differs)", name);
 }
 
+// The lattice indices a group may hold: x and y within 2 km of the origin (scenes are refused
+// beyond 1 km), angles within the lattice. A grid is checked against them before it is expanded,
+// so a crafted file cannot make the reader loop or allocate without bound.
+struct IndexBounds {
+    std::int64_t xy = 0;
+    int angles = 0;
+    // Fails naming the grid unless `box` lies within the bounds.
+    void check(const openvdb::CoordBBox& box, const std::string& grid, const std::string& where) const {
+        if (box.min().z() < 0 || box.max().z() >= angles)
+            fail(where, "grid {} has poses at angle index {}, outside 0..{}", grid, box.min().z() < 0 ? box.min().z() : box.max().z(), angles - 1);
+        if (box.min().x() < -xy || box.max().x() > xy || box.min().y() < -xy || box.max().y() > xy)
+            fail(where, "grid {} has poses beyond 2 km of the origin: not a group amhv wrote", grid);
+    }
+};
+
+IndexBounds index_bounds(const GroupLattice& lattice) { return {std::int64_t(std::ceil(2000.0 / lattice.voxel)), lattice.angles}; }
+
 // The active voxels of one height's grid as pieces of runs of i along (k, j) rows, in the sweep's
 // order (theta, y, x); SolutionGroup::add_run joins those that continue across leaves. Leaves (8^3 poses) are read row by row
-// from their masks; solid blocks stored as tiles (pruneGrid) expand row by row of their box.
-std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l) {
+// from their masks; solid blocks stored as tiles (pruneGrid) expand row by row of their box. Every
+// leaf and tile must lie within `bounds`, and the rows they expand to must fit the memory budget.
+std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l, const IndexBounds& bounds, const std::string& where) {
+    std::uint64_t rows = 0;
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+        openvdb::CoordBBox active;
+        leaf->evalActiveBoundingBox(active, true);  // the active voxels, not the whole 8^3 node
+        if (!active.empty()) bounds.check(active, grid.getName(), where);
+        rows += 64;
+    }
+    auto tile = grid.tree().cbeginValueOn();
+    tile.setMaxDepth(openvdb::BoolTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only: leaves are read below
+    for (; tile; ++tile) {
+        const openvdb::CoordBBox box = tile.getBoundingBox();
+        bounds.check(box, grid.getName(), where);
+        rows += std::uint64_t(box.dim().z()) * std::uint64_t(box.dim().y());
+    }
+    budget::require_memory(rows * sizeof(PoseRun) * 2, fmt::format("reading {}", where), "is it a group amhv wrote?");
     std::vector<PoseRun> pieces;
     for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
         const openvdb::Coord origin = leaf->origin();
@@ -93,9 +128,7 @@ std::vector<PoseRun> grid_runs(const openvdb::BoolGrid& grid, int l) {
                     x = end + 1;
                 }
     }
-    auto tile = grid.tree().cbeginValueOn();
-    tile.setMaxDepth(openvdb::BoolTree::ValueOnCIter::LEAF_DEPTH - 1);  // tiles only: leaves were read above
-    for (; tile; ++tile) {
+    for (tile = grid.tree().cbeginValueOn(), tile.setMaxDepth(openvdb::BoolTree::ValueOnCIter::LEAF_DEPTH - 1); tile; ++tile) {
         const openvdb::CoordBBox box = tile.getBoundingBox();
         for (int k = box.min().z(); k <= box.max().z(); ++k)
             for (int j = box.min().y(); j <= box.max().y(); ++j) pieces.push_back({l, k, j, box.min().x(), box.max().x()});
@@ -203,10 +236,7 @@ SolutionGroup read_group_vdb(const std::filesystem::path& path, const GroupLatti
         const auto grid = openvdb::gridPtrCast<openvdb::BoolGrid>(*found);
         if (!grid) fail(where, "grid {} is not a BoolGrid", name);
         check_grid_lattice(*grid, expected, l, where);
-        std::vector<PoseRun> pieces = grid_runs(*grid, l);
-        for (const PoseRun& piece : pieces)
-            if (piece.k < 0 || piece.k >= expected.angles)
-                fail(where, "grid {} has poses at angle index {}, outside 0..{}", name, piece.k, expected.angles - 1);
+        std::vector<PoseRun> pieces = grid_runs(*grid, l, index_bounds(expected), where);
         for (const PoseRun& piece : pieces) group.add_run(piece);
     }
     return group;
@@ -230,8 +260,9 @@ GroupLattice read_group_lattice(const std::filesystem::path& path) {
         lattice.z_first = std::min(lattice.z_first, l);
         lattice.z_last = std::max(lattice.z_last, l);
     }
-    if (!(lattice.voxel > 0) || lattice.angles < 1 || lattice.z_last - lattice.z_first + 1 != int(grids->size()))
-        fail(where, "its grids do not describe one lattice of heights: not written by amhv");
+    if (!(lattice.voxel >= 0.001 && lattice.voxel <= 10) || lattice.angles < 1 || lattice.angles > 36000 ||
+        !(std::abs(lattice.angle_step_deg * lattice.angles - 360.0) < 1e-6) || std::int64_t(lattice.z_last) - lattice.z_first + 1 != std::int64_t(grids->size()))
+        fail(where, "its grids do not describe one lattice of heights (voxel, angle step and angles as amhv sweeps): not written by amhv");
     return lattice;
 }
 

@@ -81,21 +81,6 @@ int write_party_frames(const fs::path& folder, const std::vector<std::string>& n
     return length;
 }
 
-void write_party_key_views(const fs::path& folder, const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
-                           const std::vector<ObjectSource*>& sources) {
-    fs::create_directories(folder);
-    for (const KeyView& view : views) {
-        TriangleMesh all;
-        std::vector<std::size_t> faces_from{0};
-        for (std::size_t o = 0; o < frames.size(); ++o) {
-            all.append(placed_mesh(frames[o][std::size_t(view.frame)], *sources[o]));
-            faces_from.push_back(all.triangles.size());
-        }
-        const Eigen::Vector2d across = frames[view.second][std::size_t(view.frame)].edited_root - frames[view.first][std::size_t(view.frame)].edited_root;
-        draw_side_view(folder / fmt::format("key_{}.png", view.key), all, faces_from, across);
-    }
-}
-
 Json pair_summary(const std::vector<std::string>& names, const std::vector<PairRow>& rows, double voxel) {
     Json out = Json::array();
     for (std::size_t i = 0; i < names.size(); ++i)

@@ -36,10 +36,6 @@ void write_party_transforms_json(const std::filesystem::path& path, const Scene&
 int write_party_frames(const std::filesystem::path& folder, const std::vector<std::string>& names,
                        const std::vector<std::vector<ObjectFrameEdit>>& frames, const std::vector<ObjectSource*>& sources);
 
-// One key segment's picture: `folder`/key_N.png shows every object at output frame `frame`, looking
-// across the line from object `first`'s root to object `second`'s (the pair).
-void write_party_key_views(const std::filesystem::path& folder, const std::vector<KeyView>& views, const std::vector<std::vector<ObjectFrameEdit>>& frames,
-                           const std::vector<ObjectSource*>& sources);
 
 // result.json's "pairs": per pair, the frames checked, the frames with overlap, the largest overlap
 // and the smallest gap.

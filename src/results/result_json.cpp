@@ -11,6 +11,7 @@
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
 #include "src/results/group_vdb.hpp"
+#include "src/io/json_problem.hpp"
 
 namespace amhv::results {
 
@@ -260,7 +261,7 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
     try {
         json = nlohmann::json::parse(in);
     } catch (const nlohmann::json::exception& e) {
-        fail(where, "is not valid JSON ({})", e.what());
+        fail(where, "is {}", json_problem(e));
     }
     SweepRecord record;
     try {
@@ -279,7 +280,7 @@ SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
             record.sweeps.push_back(std::move(k));
         }
     } catch (const nlohmann::json::exception& e) {
-        fail(where, "is not a sweep's result.json ({})", e.what());
+        fail(where, "is not a sweep's result.json ({})", json_problem(e));
     }
     return record;
 }

@@ -167,7 +167,7 @@ bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbOb
     const ObjectFrameEdit& e = (*object.frames)[std::size_t(k)];
     m.name = fmt::format("{} frame {:04d} src {:04d}", object.name, k, e.source);
     if (track.textured) {
-        const ObjAppearance obj = read_obj_appearance(source_frame_file(*object.source, e.source));
+        const ObjAppearance obj = read_obj_appearance(source_frame_file(*object.source, e.source), object.source->spec().files_root);
         m.primitives = textured_primitives(glb, materials, obj, o, e, object.source->spec().units);
         report.index_accessors += int(m.primitives.size());
         return !m.primitives.empty();

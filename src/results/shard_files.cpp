@@ -12,6 +12,7 @@
 
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
+#include "src/io/json_problem.hpp"
 
 namespace amhv::results {
 
@@ -211,7 +212,7 @@ ShardManifest read_shard_manifest(const fs::path& folder) {
     try {
         json = nlohmann::json::parse(read_file_bytes(file));
     } catch (const nlohmann::json::exception& e) {
-        fail(where, "is not valid JSON ({}): the shard is damaged (sweep it again)", e.what());
+        fail(where, "is {}: the shard is damaged (sweep it again)", json_problem(e));
     }
     ShardManifest m;
     try {
@@ -234,9 +235,9 @@ ShardManifest read_shard_manifest(const fs::path& folder) {
             m.peak_memory_mb = json.at("timings_s").at("peak_memory_mb").get<double>();
         }
     } catch (const nlohmann::json::exception& e) {
-        fail(where, "is not a shard's manifest ({})", e.what());
-    } catch (const std::logic_error& e) {  // std::stoul on a bad crc32
-        fail(where, "is not a shard's manifest (crc32: {})", e.what());
+        fail(where, "is not a shard's manifest ({})", json_problem(e));
+    } catch (const std::logic_error&) {  // std::stoul on a bad crc32
+        fail(where, "is not a shard's manifest (its crc32 is not a hexadecimal number)");
     }
     if (m.count < 1 || m.index < 1 || m.index > m.count) fail(where, "shard {} of {} is no shard (K counts from 1 to N)", m.index, m.count);
     for (const ShardPieceRecord& p : m.pieces)

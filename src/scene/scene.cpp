@@ -196,6 +196,11 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
         o.labels = resolve(t.file(), *labels);
     }
     if (auto track = t.string("track")) o.track = resolve(t.file(), *track);
+    if (auto root = t.string("files_root")) {
+        if (bvh) t.error("files_root", t.get("files_root"), "only a mesh sequence names other files (materials, textures)");
+        o.files_root = resolve(t.file(), *root);
+        if (!fs::is_directory(o.files_root)) t.error("files_root", t.get("files_root"), "'{}' is not a folder", o.files_root.string());
+    }
     o.facing_deg = t.number("facing_deg", -360, 360);
     TableReader placement = t.table("placement");
     o.placement.x = placement.number("x", -1e4, 1e4).value_or(0);
@@ -583,7 +588,7 @@ Scene load_scene(const fs::path& file) {
         if (!array || array->empty()) weights.error("a_rotations_deg", node, "must be a non-empty array of angles in degrees");
         w.a_rotations_deg.clear();
         for (const toml::node& item : *array) {
-            if (!item.is_number() || std::abs(item.value<double>().value()) > 180)
+            if (!item.is_number() || !(std::abs(item.value<double>().value()) <= 180))  // NaN fails too
                 weights.error("a_rotations_deg", node, "must hold angles in degrees within [-180, 180]");
             w.a_rotations_deg.push_back(item.value<double>().value());
         }
@@ -670,6 +675,7 @@ std::string resolved_toml(const Scene& scene) {
         t.insert("frames", toml::array{o->frame_first, o->frame_last});
         if (!o->labels.empty()) t.insert("labels", o->labels);
         if (!o->track.empty()) t.insert("track", o->track);
+        if (!o->files_root.empty()) t.insert("files_root", o->files_root.string());
         if (o->facing_deg) t.insert("facing_deg", *o->facing_deg);
         t.insert("placement", toml::table{{"x", o->placement.x}, {"y", o->placement.y}, {"yaw_deg", o->placement.yaw_deg}});
         objects.insert(o->name, t);

@@ -45,6 +45,9 @@ struct SceneObject {
     TPose tpose = TPose::Auto;         // BVH: skip or keep frame 0 (resolved from auto when loaded)
     std::string labels;                // optional per-vertex part labels (pattern of text files)
     std::string track;                 // optional CSV: frame, eye xyz, gaze xyz (object units/axes)
+    // The folder every file the meshes name (an OBJ's mtllib, an MTL's textures) must lie in; empty:
+    // each mesh file's own folder (src/io/obj_appearance.hpp, confined_reference).
+    std::filesystem::path files_root;
     std::optional<double> facing_deg;  // constant facing when there is no track
     Placement placement;               // editor's initial placement of the capture frame in the scene
     int frame_first = 0, frame_last = -1;  // frame numbers available (inclusive)

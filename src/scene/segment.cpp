@@ -152,7 +152,7 @@ double ObjectSource::find_floor() {
             for (const BodyPart& part : skeleton_body_parts(*motion_, f, body_options_))
                 for (const Vec3& v : part.mesh.vertices) low = std::min(low, v.z());
         } else {
-            for (const Vec3& v : read_mesh(frame_file(spec_.meshes, f), spec_.units).vertices) low = std::min(low, v.z());
+            for (const Vec3& v : read_mesh(frame_file(spec_.meshes, f), spec_.units, spec_.files_root).vertices) low = std::min(low, v.z());
         }
         if (std::isfinite(low)) lowest.push_back(low);
     }
@@ -256,7 +256,7 @@ const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
         parts = skeleton_body_parts(*motion_, number, body_options_);
     } else {
         const fs::path file = frame_file(spec_.meshes, number);
-        TriangleMesh mesh = read_mesh(file, spec_.units);
+        TriangleMesh mesh = read_mesh(file, spec_.units, spec_.files_root);
         if (!spec_.labels.empty()) {
             parts = split_by_labels(mesh, read_labels(frame_file(spec_.labels, number), mesh.vertices.size()));
             for (const auto& p : parts)
@@ -283,7 +283,7 @@ const MeshFrame& ObjectSource::part_frame(const std::string& meshes, int number)
         return part_frames_.emplace(key, MeshFrame{moved(own.mesh, f), own.source}).first->second;
     }
     const fs::path file = frame_file(meshes, number);
-    MeshFrame frame{read_mesh(file, spec_.units), file.string()};
+    MeshFrame frame{read_mesh(file, spec_.units, spec_.files_root), file.string()};
     return part_frames_.emplace(key, std::move(frame)).first->second;
 }
 
