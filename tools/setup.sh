@@ -1,30 +1,51 @@
 #!/usr/bin/env bash
-# Installs everything amhv needs to build, test and run, from Debian 12 packages only.
+# Installs what amhv needs, from Debian 12 packages (and two tools from the npm registry).
+#
+#   bash tools/setup.sh          everything: build, run, and the whole test suite (what CI runs)
+#   bash tools/setup.sh --run    only what building and running amhv needs (README's first command):
+#                                no test framework, browser, Slurm, clang or validation layers
+#
 # Safe to run again: apt skips what is already there.
 set -euo pipefail
 
+profile=all
+case "${1:-}" in
+  --run) profile=run ;;
+  "") ;;
+  *) echo "setup: unknown option '$1' (use --run, or nothing for everything)" >&2; exit 2 ;;
+esac
+
+# Building and running amhv (the demo writes its page, so three.js comes too).
 packages=(
-  build-essential cmake pkg-config
-  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
-  glslang-tools glslang-dev spirv-tools
-  libeigen3-dev libopenmesh-dev libopenexr-dev libpng-dev libcairo2-dev
+  build-essential cmake pkg-config git
+  libvulkan-dev mesa-vulkan-drivers glslang-tools
+  libeigen3-dev libopenmesh-dev libopenexr-dev libpng-dev libcairo2-dev libfreetype-dev fonts-dejavu-core
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
   libopenvdb-dev libboost-iostreams-dev
-  python3 python3-openvdb universal-ctags time
   libtinygltf-dev libnanoflann-dev zlib1g-dev
-  chromium
-  slurm-wlm   # the one-node Slurm cluster of the scale-out test (tests/slurm_cluster.sh)
+  libcpp-httplib-dev   # the page server of `amhv view --serve`
 )
+npm_tools=("three@0.147.0")
+if [ "$profile" = all ]; then
+  packages+=(
+    vulkan-validationlayers vulkan-tools glslang-dev spirv-tools
+    libgtest-dev libgmock-dev libbenchmark-dev
+    python3 python3-openvdb universal-ctags time
+    clang libclang-rt-14-dev   # the sanitizer job and the fuzz targets (libFuzzer)
+    chromium
+    slurm-wlm   # the one-node Slurm cluster of the scale-out test (tests/slurm_cluster.sh)
+  )
+  # The Khronos glTF validator, for the tests that validate every scene.glb.
+  npm_tools+=("gltf-validator@2.0.0-dev.3.10")
+fi
 # Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
 # nodejs bundles npm and conflicts with Debian's npm package).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 
-# From the npm registry, into tools/npm/ (ignored by git), pinned: the Khronos glTF validator, for
-# the tests that validate every scene.glb, and three.js, which `amhv edit` copies beside the page it
-# writes (r147: the last with classic scripts, which a page opened from file:// may load).
-npm_tools=("gltf-validator@2.0.0-dev.3.10" "three@0.147.0")
+# From the npm registry, into tools/npm/ (ignored by git), pinned: three.js, which `amhv edit`
+# copies beside the page it writes (r147: the last with classic scripts, which a page opened from
+# file:// may load), and (for the tests) the glTF validator.
 install_npm_tools() {
   local prefix tool name
   prefix="$(cd "$(dirname "$0")" && pwd)/npm"
