@@ -3,6 +3,8 @@
 // end in its own exact refusal: a non-zero exit, one "amhv: error:" line naming the file (and line)
 // and what is wrong, no crash, no hang, no output folder. docs/scenes.md, "What amhv refuses".
 #include <cstdio>
+#include <cstdlib>
+#include <map>
 #include <fstream>
 #include <random>
 #include <set>
@@ -251,6 +253,10 @@ std::vector<Hostile> scene_cases() {
         {"SceneVoxelZero", with("voxel = 0.04", "voxel = 0.0"), check, "scene.toml:2: sampling.voxel"},
         {"SceneVoxelNaN", with("voxel = 0.04", "voxel = nan"), check, "scene.toml:2: sampling.voxel"},
         {"SceneVoxelHuge", with("voxel = 0.04", "voxel = 1e300"), check, "scene.toml:2: sampling.voxel"},
+        {"SceneRotationNaN", with("[objects.A]", "[weights]\na_rotations_deg = [nan]\n\n[objects.A]"), check,
+         "weights.a_rotations_deg: must hold angles in degrees within [-180, 180]"},
+        {"SceneFilesRootMissing", with("[objects.A]", "[objects.C]\nmeshes = \"m/f_%04d.obj\"\nfiles_root = \"nowhere\"\n\n[objects.A]"), check,
+         "files_root"},
         {"SceneFramesWrap", with("a = [108, 147]", "a = [108, 4294967296]"), check, "scene.toml:12: segments[1].a: frame numbers must lie in 0..10000000"},
         {"SceneFramesBeyondTake", with("a = [108, 147]", "a = [108, 9000]"), check, "scene.toml"},
         {"SceneUnknownKey", with("type = \"0&0a\"", "type = \"0&0a\"\nvisibilty = true"), check, "visibilty"},
@@ -368,6 +374,59 @@ std::vector<Hostile> corpus() {
 INSTANTIATE_TEST_SUITE_P(Corpus, HostileInput, ::testing::ValuesIn(corpus()), [](const auto& param_info) { return param_info.param.name; });
 
 TEST(HostileCorpus, HasAtLeastSixtyCases) { EXPECT_GE(corpus().size(), 60u); }
+
+// The fuzz targets' seed corpora (tests/fuzz/corpus/TARGET/, committed): every file of this corpus
+// by its reader, a good input of each reader, and the page server's requests. Run by hand when the
+// corpus grows: AMHV_FUZZ_SEEDS=tests/fuzz/corpus build/tests/amhv_tests
+// --gtest_also_run_disabled_tests --gtest_filter=HostileCorpus.DISABLED_WritesFuzzSeeds
+TEST(HostileCorpus, DISABLED_WritesFuzzSeeds) {
+    const char* root = std::getenv("AMHV_FUZZ_SEEDS");
+    ASSERT_NE(root, nullptr) << "set AMHV_FUZZ_SEEDS to the corpus folder";
+    const std::map<std::string, std::string> by_extension{{".bvh", "bvh"}, {".obj", "mesh_obj"}, {".ply", "mesh_ply"}, {".off", "mesh_off"},
+                                                          {".stl", "mesh_stl"}, {".mtl", "mtl"}, {".toml", "scene"}, {".vdb", "group_vdb"},
+                                                          {".json", "shard"}};
+    auto seed = [&](const std::string& target, const std::string& name, const std::string& bytes) {
+        fs::create_directories(fs::path(root) / target);
+        std::ofstream(fs::path(root) / target / name, std::ios::binary) << bytes;
+    };
+    test::TempDir tmp;
+    fs::copy(test::source_dir() / "data" / "cmu", tmp.path() / "cmu");
+    std::ofstream(tmp.path() / "scene.toml") << kScene;
+    ASSERT_EQ(test::run_amhv(fmt::format("sweep '{0}/scene.toml' --no-maps --backend cpu --out '{0}/sweep'", tmp.path().string())).exit_code, 0);
+    ASSERT_EQ(test::run_amhv(fmt::format("sweep '{0}/scene.toml' --shard 1/2 --backend cpu --out '{0}/shard'", tmp.path().string())).exit_code, 0);
+    const fs::path good = tmp.path() / "sweep" / "segment_1" / "group.vdb";
+    for (const Hostile& c : corpus())
+        for (const auto& [path, content] : c.files) {
+            const auto target = by_extension.find(fs::path(path).extension().string());
+            if (path.front() == '@' || target == by_extension.end() || content == "@remove") continue;
+            const std::string bytes = content.rfind("@group:", 0) == 0 ? tampered_group(good, content.substr(7)) : content;
+            seed(target->second, c.name + "-" + fs::path(path).filename().string(), bytes);
+        }
+    seed("bvh", "good-take.bvh", bvh("3", "0.04", kRow, 3));
+    seed("mesh_obj", "good-tetra.obj", kTetra);
+    seed("mesh_off", "good-tetra.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n");
+    seed("mesh_ply", "good-tetra.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                                       "element face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                       "3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n");
+    seed("mesh_stl", "good-tetra.stl", "solid t\nfacet normal 0 0 -1\nouter loop\nvertex 0 0 0\nvertex 0 1 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid t\n");
+    seed("mtl", "good.mtl", "newmtl skin\nKd 0.8 0.6 0.5\nd 1\nmap_Kd textures/skin.png\n");
+    seed("scene", "good-meshes.toml", "[sampling]\nvoxel = 0.05\nangle_step_deg = 90.0\n\n[objects.A]\nmeshes = \"m/%04d.obj\"\n\n"
+                                      "[objects.B]\nbvh = \"take.bvh\"\n\n[[segments]]\na = [0, 1]\nb = [1, 2]\ntype = \"0&0b\"\n");
+    seed("group_vdb", "good-group.vdb", test::read_text(good));
+    seed("shard", "good-shard.json", test::read_text(tmp.path() / "shard" / "shard.json"));
+    const std::vector<std::pair<std::string, std::string>> requests{
+        {"get-index", "GET / HTTP/1.1\r\nHost: 127.0.0.1:8080\r\n\r\n"},
+        {"get-data-keepalive", "GET /view/data.js HTTP/1.1\r\nHost: localhost\r\n\r\nHEAD /index.html HTTP/1.1\r\nHost: localhost\r\n\r\n"},
+        {"absolute", "GET //etc/passwd HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"},
+        {"query-only", "GET ?a HTTP/1.1\r\n\r\n"},
+        {"dotdot-encoded", "GET /%2e%2e/secret HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"},
+        {"link", "GET /link HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"},
+        {"rebinding", "GET / HTTP/1.1\r\nHost: evil.example\r\n\r\n"},
+        {"post-body", "POST / HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 5\r\n\r\nhello"},
+        {"chunked", "POST / HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n5\r\nhello\r\n0\r\n\r\n"},
+        {"range", "GET /index.html HTTP/1.1\r\nRange: bytes=0-3,5-\r\n\r\n"}};
+    for (const auto& [name, request] : requests) seed("server", name, request);
+}
 
 // A folder with the captures and the scene files `scenes` (name -> text), each swept into a folder
 // of its name.

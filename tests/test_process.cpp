@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "src/core/amhv.hpp"
+#include "src/core/sanitizers.hpp"
 #include "src/core/process.hpp"
 
 namespace amhv {
@@ -43,7 +44,7 @@ const void* aligned_inside(const void* block) {
 
 bool advised(const std::string& flags) { return flags.find(" hg") != std::string::npos; }
 
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(AMHV_ASAN)
 constexpr bool kSanitized = true;  // the sanitizer's runtime keeps its own allocator
 #else
 constexpr bool kSanitized = false;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The device checks of a lent GPU machine in one prepared run (docs/benchmarks.md, "Figures on the
-# H100"): the test suite in 16 shards with validation on, B1 and B2 (Vulkan paths), B3 at 10 mm /
+# The device checks of a machine with a discrete GPU in one prepared run (docs/benchmarks.md, "On a
+# discrete GPU"): the test suite in 16 shards with validation on, B1 and B2 (Vulkan paths), B3 at 10 mm /
 # 2 deg (alternating with a second build when given) and at 5 mm / 1 deg with its per-segment log,
 # and B4's key segment 1 at four samplings.
 #

@@ -200,8 +200,10 @@ void same_rotation_minimum(const ChainSegment& prev, const ChainSegment& seg, co
                            const ChainWeights& w, int d, std::size_t i, PerSolution<double>& best, PerSolution<PackedState>& arg) {
     const double c = pair_factor(w), h = w.voxel;
     const Eigen::Vector2d shift = rotate(-(w.yaw_a + w.a_rotations_rad[std::size_t(d)]), a);
-    const auto [pi0, pi1, pj0, pj1] = cell_box(prev.solutions);
-    const auto [qi0, qi1, qj0, qj1] = cell_box(seg.solutions);
+    // Plain names (not structured bindings): lambdas below capture them, which clang 14 refuses.
+    const auto prev_box = cell_box(prev.solutions), seg_box = cell_box(seg.solutions);
+    const int pi0 = prev_box[0], pi1 = prev_box[1], pj0 = prev_box[2], pj1 = prev_box[3];
+    const int qi0 = seg_box[0], qi1 = seg_box[1], qj0 = seg_box[2], qj1 = seg_box[3];
     const int pw = pi1 - pi0 + 1, ph = pj1 - pj0 + 1, qw = qi1 - qi0 + 1, qh = qj1 - qj0 + 1;
     // The distance transform's grids span both groups' boxes: checked before allocating.
     budget::require_memory((std::uint64_t(pw) * ph + std::uint64_t(ph) * qw + std::uint64_t(qw) * qh) * 12,

@@ -78,8 +78,8 @@ void run_demo(EditArguments args) {
     std::cout << fmt::format(
         "look at:\n"
         "  {0}/index.html         the scene playing, and the handshake's solution group: open it in a web browser\n"
-        "  {0}/views/key_1.png    the middle of the handshake from the side, as the edit places the two performers\n"
-        "  {0}/paths.png          root paths from above: dashed = captured, solid = edited, thick = the handshake\n"
+        "  {0}/views/key_1.png    the handshake where the hands meet, seen across them, as the edit places the two performers\n"
+        "  {0}/paths.png          root paths from above, with a legend: dashed = captured, solid = edited, thick = the handshake\n"
         "  {0}/scene.glb          the whole edited scene, animated: Blender (File > Import > glTF 2.0) or any glTF viewer\n"
         "  {0}/frames/NNNN.ply    both performers per output frame (A orange, B blue): MeshLab, Blender (File > Import > PLY) or ParaView\n"
         "  {0}/result.json        the solution group, the chosen pose, and \"truth\": how far both are from the real capture\n"

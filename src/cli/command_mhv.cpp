@@ -68,6 +68,12 @@ void run_mhv(const MhvArguments& args) {
     if (args.axis.size() != 1 || std::string("xyz").find(args.axis) == std::string::npos)
         throw Error(fmt::format("--axis: '{}' is not x, y or z", args.axis));
 
+    // The output folder is checked (and locked) before any work: a target amhv may not write is
+    // refused at once, not after the volume is built.
+    std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
+    if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
+    StagedOutput out(args.out, inputs);
+
     std::string source;
     const MeshSequence sequence = read_segment(args, source);
     timings["read"] = clock.lap();
@@ -76,9 +82,6 @@ void run_mhv(const MhvArguments& args) {
     Backend backend(args.backend, args.device);
     timings["device"] = clock.lap();
 
-    std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
-    if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
-    StagedOutput out(args.out, inputs);
     const pipeline::MhvFiles files{args.exr, args.exr_multipart, args.vdb, args.timings, args.axis[0], args.glb};
     const pipeline::MhvReport report = pipeline::write_mhv(plan, backend.voxeliser(), args.backend, backend.device(), files, out.dir(), timings);
     out.commit();

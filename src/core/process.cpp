@@ -1,4 +1,5 @@
 #include "src/core/process.hpp"
+#include "src/core/sanitizers.hpp"
 
 #include <malloc.h>
 #include <sys/mman.h>
@@ -31,7 +32,7 @@ void advise_huge_pages(void* block, std::size_t bytes) {
 // huge pages. It allocates with malloc, as libstdc++'s own does, so the default operator delete
 // (free) still matches. Sanitizer builds keep their runtime's allocator, which tracks new/delete
 // pairs itself.
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+#if !defined(AMHV_ASAN) && !defined(__SANITIZE_THREAD__)
 void* operator new(std::size_t bytes) {
     void* block = std::malloc(bytes ? bytes : 1);
     if (!block) throw std::bad_alloc();

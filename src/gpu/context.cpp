@@ -7,7 +7,9 @@
 #include <string>
 
 #include <fmt/format.h>
-#if defined(__SANITIZE_ADDRESS__)
+
+#include "src/core/sanitizers.hpp"
+#if defined(AMHV_ASAN)
 #include <sanitizer/lsan_interface.h>
 #endif
 
@@ -35,7 +37,7 @@ constexpr const char* kInstallHint =
 // then reports them from a module it cannot name, which no suppression (tools/lsan.supp) matches.
 // The sanitizer build leaves the set-up's allocations out of its leak check.
 vk::raii::PhysicalDevices enumerate_devices(const vk::raii::Instance& instance) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(AMHV_ASAN)
     const __lsan::ScopedDisabler drivers_own_set_up;
 #endif
     return vk::raii::PhysicalDevices(instance);

@@ -10,6 +10,7 @@
 #include <limits>
 #include <cmath>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include <Eigen/LU>
@@ -320,31 +321,79 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
 
 // PLY: the header's counts must be matched by the file; in ASCII files with the usual vertex and
 // face elements, vertex rows must hold finite numbers and face rows indices of those vertices.
-void precheck_ply(std::istream& in, const std::string& source, std::uint64_t size) {
-    std::string line, format;
-    std::uint64_t vertices = 0, faces = 0, header_bytes = 0, header_lines = 0, lines = 0;
+// One line of a PLY header, checked against the format's grammar before OpenMesh reads it (its
+// reader crashes on some malformed headers: a property before any element, a word it does not
+// know). Fills the format, the elements in order and their property names.
+struct PlyHeader {
+    std::string format;
+    std::vector<std::pair<std::string, std::uint64_t>> elements;  // name, count
+    std::vector<std::vector<std::string>> properties;             // per element: names (a list property as "list NAME")
     bool ended = false;
-    std::vector<std::string> elements;
-    while (header_bytes < 65536 && std::getline(in, line)) {
+};
+
+void read_ply_header_line(const std::string& line, std::uint64_t number, const std::string& source, PlyHeader& h) {
+    static const std::set<std::string> kTypes{"char",  "uchar",  "short",  "ushort",  "int",    "uint",    "float",   "double",
+                                              "int8",  "uint8",  "int16",  "uint16",  "int32",  "uint32",  "float32", "float64"};
+    const std::string where = fmt::format("{}:{}", source, number);
+    std::istringstream in(line);
+    std::vector<std::string> w;
+    for (std::string word; in >> word;) w.push_back(word);
+    if (number == 1) {
+        if (w.size() != 1 || w[0] != "ply") fail(where, "malformed PLY header: the first line must be 'ply'");
+        return;
+    }
+    if (w.empty()) fail(where, "malformed PLY header: an empty line");
+    if (w[0] == "comment" || w[0] == "obj_info") return;
+    if (w[0] == "format") {
+        if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian") || w[2] != "1.0" || !h.format.empty())
+            fail(where, "malformed PLY header: a format line must be 'format ascii|binary_little_endian|binary_big_endian 1.0', once");
+        h.format = w[1];
+    } else if (w[0] == "element") {
+        std::uint64_t count = 0;
+        const auto [end, ec] = w.size() == 3 ? std::from_chars(w[2].data(), w[2].data() + w[2].size(), count) : std::from_chars_result{nullptr, std::errc::invalid_argument};
+        if (w.size() != 3 || ec != std::errc() || end != w[2].data() + w[2].size() || count > 0xffffffffull)
+            fail(where, "malformed PLY header: an element line must be 'element NAME COUNT'");
+        h.elements.emplace_back(w[1], count);
+        h.properties.emplace_back();
+    } else if (w[0] == "property") {
+        const bool list = w.size() == 5 && w[1] == "list" && kTypes.count(w[2]) && kTypes.count(w[3]);
+        if (h.elements.empty() || !(list || (w.size() == 3 && kTypes.count(w[1]))))
+            fail(where, "malformed PLY header: a property line must follow an element and be 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+        h.properties.back().push_back(list ? "list " + w[4] : w[2]);
+    } else if (w[0] == "end_header" && w.size() == 1) {
+        h.ended = true;
+    } else {
+        fail(where, "malformed PLY header: '{}' is not a header line", printable(w[0]));
+    }
+}
+
+void precheck_ply(std::istream& in, const std::string& source, std::uint64_t size) {
+    std::string line;
+    std::uint64_t vertices = 0, faces = 0, header_bytes = 0, header_lines = 0, lines = 0;
+    PlyHeader header;
+    while (header_bytes < 65536 && !header.ended && std::getline(in, line)) {
         header_bytes += line.size() + 1;
         ++header_lines;
         if (!line.empty() && line.back() == '\r') line.pop_back();
-        std::istringstream words(line);
-        std::string word, kind;
-        words >> word;
-        if (word == "format") words >> format;
-        if (word == "element") {
-            std::uint64_t count = 0;
-            words >> kind >> count;
-            elements.push_back(kind);
-            if (kind == "vertex") vertices = count;
-            if (kind == "face") faces = count;
-        }
-        if (word == "end_header") {
-            ended = true;
-            break;
-        }
+        read_ply_header_line(line, header_lines, source, header);
     }
+    const bool ended = header.ended;
+    if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
+    if (header.format.empty()) fail(source, "malformed PLY: the header has no format line");
+    std::vector<std::string> elements;
+    for (std::size_t e = 0; e < header.elements.size(); ++e) {
+        const auto& [name, count] = header.elements[e];
+        const auto& props = header.properties[e];
+        auto has = [&](const std::string& p) { return std::find(props.begin(), props.end(), p) != props.end(); };
+        if (name == "vertex" && (!has("x") || !has("y") || !has("z"))) fail(source, "malformed PLY: the vertex element has no x, y and z");
+        if (name == "face" && std::none_of(props.begin(), props.end(), [](const std::string& p) { return p.rfind("list ", 0) == 0; }))
+            fail(source, "malformed PLY: the face element has no list of vertex indices");
+        if (std::find(elements.begin(), elements.end(), name) != elements.end()) fail(source, "malformed PLY: element {} given twice", printable(name));
+        elements.push_back(name);
+        if (name == "vertex") vertices = count;
+        if (name == "face") faces = count;
+    }
+    const std::string format = header.format;
     if (!ended) fail(source, "malformed PLY: no end_header in the first 64 KiB");
     if (format != "ascii") {
         if (header_bytes + vertices * 12 + faces * 13 > size)

@@ -52,6 +52,8 @@ int slurm_shard_index() {
 }
 
 std::uint32_t file_crc(const fs::path& path) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) fail(path.string(), "is not a regular file");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(path.string(), "cannot open the file");
     std::vector<char> buffer(std::size_t(1) << 20);

@@ -13,6 +13,7 @@
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/results/solutions_csv.hpp"
+#include "src/io/files.hpp"
 #include "src/io/json_problem.hpp"
 
 namespace amhv::pipeline {
@@ -24,13 +25,13 @@ namespace {
 // A's and B's facings from the segment's entry in result.json (what describe() needs).
 PoseDescriber facings_of(const fs::path& dir, int segment, const results::GroupLattice& lattice) {
     const fs::path file = dir / "result.json";
-    std::ifstream in(file);
-    if (!in) fail(file.string(), "cannot open: `amhv solutions` reads an output folder of `amhv sweep` or `amhv edit`");
+    if (!fs::exists(file)) fail(file.string(), "cannot open: `amhv solutions` reads an output folder of `amhv sweep` or `amhv edit`");
+    const std::string text = read_file_bytes(file, std::uintmax_t(1) << 30);
     PoseDescriber describe;
     describe.voxel = lattice.voxel;
     describe.angle_step_deg = lattice.angle_step_deg;
     try {
-        const nlohmann::json json = nlohmann::json::parse(in);
+        const nlohmann::json json = nlohmann::json::parse(text);
         for (const auto& s : json.at("segments"))
             if (s.at("index").get<int>() == segment) {
                 const auto fa = s.at("facing").at("A").get<std::array<double, 2>>(), fb = s.at("facing").at("B").get<std::array<double, 2>>();

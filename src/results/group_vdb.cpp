@@ -14,6 +14,7 @@
 #include "src/core/budget.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
+#include "src/io/vdb_file.hpp"
 
 namespace amhv::results {
 
@@ -53,12 +54,18 @@ openvdb::GridPtrVecPtr read_grids(const std::filesystem::path& path) {
     try {
         // From memory as a stream: io::File on a truncated file can spend seconds or hang in its
         // header and metadata reads, where a stream that ends simply fails.
-        std::istringstream bytes(read_file_bytes(path), std::ios::binary);
+        const std::string file = read_file_bytes(path, std::uintmax_t(1) << 32);
+        check_vdb_layout(file, where);  // every length OpenVDB will trust, before it allocates
+        std::istringstream bytes(file, std::ios::binary);
         bytes.exceptions(std::ios::failbit | std::ios::badbit);
         openvdb::io::Stream stream(bytes, /*delayLoad=*/false);
         return stream.getGrids();
-    } catch (const std::exception& e) {
-        fail(where, "is not a readable OpenVDB file ({})", e.what());
+    } catch (const Error&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw;
+    } catch (const std::exception&) {
+        fail(where, "is not a readable OpenVDB file (OpenVDB could not read it: damaged or truncated)");
     }
 }
 
@@ -217,6 +224,9 @@ void write_group_vdb(const std::filesystem::path& path, const SolutionGroup& gro
     for (auto& [l, grid] : by_level) grid->pruneGrid();
     try {
         openvdb::io::File file(path.string());
+        // Without Blosc or zip: a compressed block states its own size, which a reader must trust
+        // before it allocates; amhv refuses such blocks when it reads a group (check_vdb_layout).
+        file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK);
         file.write(grids);
         file.close();
     } catch (const std::exception& e) {

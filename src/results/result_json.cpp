@@ -255,11 +255,11 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
 SweepRecord read_sweep_folder(const fs::path& dir, const Scene& scene) {
     const fs::path file = dir / "result.json";
     const std::string where = file.string();
-    std::ifstream in(file);
-    if (!in) fail(where, "cannot open: --from-sweep needs the folder written by `amhv sweep` (or `amhv edit`)");
+    if (!fs::exists(file)) fail(where, "cannot open: --from-sweep needs the folder written by `amhv sweep` (or `amhv edit`)");
+    const std::string text = read_file_bytes(file, std::uintmax_t(1) << 30);
     nlohmann::json json;
     try {
-        json = nlohmann::json::parse(in);
+        json = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
         fail(where, "is {}", json_problem(e));
     }

@@ -122,7 +122,8 @@ struct Scene {
     Sampling sampling;
     Weights weights;
     // The pair the two-object pipeline edits: the anchor and the other object (a multi-party scene:
-    // the first two objects of `order`; its later stages are scenes of their own, src/edit/party.hpp).
+    // the first two objects of `order`; its later stages are scenes of their own,
+    // src/pipeline/party_stage.hpp).
     SceneObject a, b;
     std::vector<KeySegment> segments;
     // Optional ground truth for evaluation: where B's capture frame really sits in A's capture

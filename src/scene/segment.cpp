@@ -13,6 +13,7 @@
 #include "src/core/error.hpp"
 #include "src/io/bvh.hpp"
 #include "src/sweep/objects.hpp"
+#include "src/io/files.hpp"
 
 namespace amhv {
 
@@ -21,8 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::map<int, TrackSample> read_track_csv(const std::string& path, const UnitsAndAxes& units) {
-    std::ifstream in(path);
-    if (!in) fail(path, "cannot open the track file");
+    std::istringstream in(read_file_bytes(path, std::uintmax_t(1) << 30));  // a regular file only: a FIFO must not hang the run
     std::map<int, TrackSample> track;
     std::string line;
     int line_number = 0;
@@ -67,8 +67,7 @@ std::map<int, TrackSample> read_track_csv(const std::string& path, const UnitsAn
 
 // One text file per frame: a part label per vertex (names or numbers), whitespace-separated.
 std::vector<std::string> read_labels(const fs::path& path, std::size_t vertex_count) {
-    std::ifstream in(path);
-    if (!in) fail(path.string(), "cannot open the labels file");
+    std::istringstream in(read_file_bytes(path, std::uintmax_t(1) << 30));
     std::vector<std::string> labels;
     std::string token;
     while (in >> token) {
