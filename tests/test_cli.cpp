@@ -286,7 +286,7 @@ TEST(Cli, UnreadableAndMissingInputs) {
     std::ofstream(bad_stl / "a.stl", std::ios::binary) << std::string(80, 'x') << std::string("\xff\xff\x00\x00", 4) << "short";
     for (const auto& [arguments, expected] : std::vector<std::pair<std::string, std::string>>{
              {fmt::format("mhv --meshes '{}' --out '{}/o'", folder.string(), tmp.path().string()), "truncated.ply: malformed PLY: 99 vertices"},
-             {fmt::format("mhv --meshes '{}' --out '{}/o'", no_header.string(), tmp.path().string()), "a.ply: malformed PLY: no end_header"},
+             {fmt::format("mhv --meshes '{}' --out '{}/o'", no_header.string(), tmp.path().string()), "a.ply:4: malformed PLY header"},
              {fmt::format("mhv --meshes '{}' --out '{}/o'", bad_stl.string(), tmp.path().string()), "a.stl: malformed binary STL"},
              {fmt::format("mhv --meshes '{}/nothing' --out '{}/o'", tmp.path().string(), tmp.path().string()), "is neither a folder"},
              {fmt::format("mhv --bvh '{}/none.bvh' --out '{}/o'", tmp.path().string(), tmp.path().string()), "cannot open BVH file"},

@@ -107,6 +107,8 @@ TEST(Demo, RestoresARealHandshakeFromSeparatedCaptures) {
     // The paper's first-person views: each performer sees the other inside its view cone's circle.
     for (const auto& [file, colour] : {std::pair{"key_1_from_A.png", 1}, std::pair{"key_1_from_B.png", 0}})
         EXPECT_GT(pixels_of(out / "views" / file, colour, 170), 2000) << file;
+    // The key view looks at the handshake: no body hides where the hands meet.
+    for (const auto& view : result.at("output").at("views")) EXPECT_EQ(view.at("camera").at("meeting_points_hidden").get<int>(), 0) << view.dump();
     // The whole scene in one glTF file the Khronos validator accepts.
     const auto valid = test::validate_gltf(out / "scene.glb");
     EXPECT_EQ(valid.exit_code, 0) << valid.output;
@@ -135,6 +137,7 @@ TEST(Demo, RestoresARealHighFiveFromAnotherSkeleton) {
     EXPECT_NEAR(chosen.at("L").get<double>(), 0.9, 0.1) << chosen.dump();
     EXPECT_NEAR(chosen.at("thetaA_deg").get<double>(), -45.0, 10.0) << chosen.dump();
     EXPECT_NEAR(chosen.at("thetaB_deg").get<double>(), -45.0, 10.0) << chosen.dump();
+    for (const auto& view : result.at("output").at("views")) EXPECT_EQ(view.at("camera").at("meeting_points_hidden").get<int>(), 0) << view.dump();
 
     const Scene scene = load_scene(scene_file);
     EXPECT_EQ(scene.a.tpose, TPose::Keep);  // no converter T-pose: frame 0 is motion

@@ -253,6 +253,8 @@ std::vector<Hostile> scene_cases() {
         {"SceneVoxelZero", with("voxel = 0.04", "voxel = 0.0"), check, "scene.toml:2: sampling.voxel"},
         {"SceneVoxelNaN", with("voxel = 0.04", "voxel = nan"), check, "scene.toml:2: sampling.voxel"},
         {"SceneVoxelHuge", with("voxel = 0.04", "voxel = 1e300"), check, "scene.toml:2: sampling.voxel"},
+        {"ScenePartUnknown", with("interest = { A = { parts = [\"right_hand\"] }", "interest = { A = { parts = [\"rigth_hand\"] }"), check,
+         "scene.toml:11: segments[1]: object A has no part 'rigth_hand'; its parts are head, torso, left_upper_arm"},
         {"SceneRotationNaN", with("[objects.A]", "[weights]\na_rotations_deg = [nan]\n\n[objects.A]"), check,
          "weights.a_rotations_deg: must hold angles in degrees within [-180, 180]"},
         {"SceneFilesRootMissing", with("[objects.A]", "[objects.C]\nmeshes = \"m/f_%04d.obj\"\nfiles_root = \"nowhere\"\n\n[objects.A]"), check,

@@ -22,6 +22,7 @@
 #include <openvdb/openvdb.h>
 
 #include "src/body/shapes.hpp"
+#include "src/core/error.hpp"
 #include "src/io/mesh_sequence.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/pipeline/page_server.hpp"
@@ -332,7 +333,7 @@ TEST(Security, GroupFilesAreCheckedBeforeOpenVdbTrustsThem) {
         try {
             results::read_group_lattice(tmp.path() / "bad.vdb");
             ADD_FAILURE() << "accepted; expected " << expected;
-        } catch (const Error& e) {
+        } catch (const amhv::Error& e) {
             EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
         }
     };

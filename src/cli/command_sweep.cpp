@@ -7,6 +7,7 @@
 
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
+#include "src/scene/interest.hpp"
 #include "src/pipeline/shard_stage.hpp"
 #include "src/pipeline/solutions_export.hpp"
 #include "src/pipeline/sweep_stage.hpp"
@@ -32,7 +33,13 @@ void run_check(const std::string& file) {
     // The objects' takes and tracks too: a scene whose files are broken is not valid.
     std::vector<std::unique_ptr<ObjectSource>> sources;
     for (const SceneObject& o : scene.objects) sources.push_back(std::make_unique<ObjectSource>(o));
+    std::vector<ObjectSource*> pointers;
+    for (auto& s : sources) pointers.push_back(s.get());
+    check_part_names(scene, pointers);
     std::cout << resolved_toml(scene);
+    for (std::size_t o = 0; o < sources.size(); ++o)
+        if (!sources[o]->label_names().empty())
+            std::cout << fmt::format("# object {} has the parts {}\n", scene.objects[o].name, fmt::join(sources[o]->label_names(), ", "));
     for (const auto& o : sources)
         if (!o->floor_note().empty()) std::cout << "# " << o->floor_note() << '\n';
     if (scene.multi_party())

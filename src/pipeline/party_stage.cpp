@@ -296,11 +296,11 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     for (const auto& frames : party.frames) frame_lists.push_back(&frames);
     std::vector<KeyView> views = key_views(scene, party);
     choose_meeting_frames(scene, views, frame_lists, pointers);
-    write_key_views(out / "views", scene, party.names, views, frame_lists, pointers);
+    const std::vector<KeyCamera> cameras = write_key_views(out / "views", scene, party.names, views, frame_lists, pointers);
     write_eye_views(out / "views", scene, party.names, views, frame_lists, pointers);
     write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party));
     const std::vector<std::string> bvh = write_edited_bvh(out, party.names, frame_lists, pointers);
-    results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"scene_glb", nullptr}};
+    results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"scene_glb", nullptr}, {"views", key_views_json(views, cameras, party.names)}};
     if (options.glb) {
         std::vector<GlbObject> objects;
         for (std::size_t o = 0; o < party.names.size(); ++o) objects.push_back({party.names[o], pointers[o], &party.frames[o]});

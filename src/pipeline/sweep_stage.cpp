@@ -220,7 +220,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
             return write_scene_glb(out / "scene.glb", glb_objects, meshes, fps);
         });
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
-    files.view_frames = write_key_and_eye_views(out / "views", scene, edit, a, b);
+    files.views = write_key_and_eye_views(out / "views", scene, edit, a, b);
     files.bvh = write_edited_bvh(out, edit, a, b);
     if (glb.valid()) {
         const SceneGlbReport report = glb.get();

@@ -134,7 +134,7 @@ int write_scene_frames(const fs::path& folder, const EditResult& edit, ObjectSou
     return edit.timeline.length();
 }
 
-std::vector<int> write_key_and_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
+nlohmann::ordered_json write_key_and_eye_views(const fs::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b) {
     std::vector<KeyView> views;
     for (const TimelineSegment& segment : edit.timeline.segments)
         if (segment.key && segment.length > 0)
@@ -142,11 +142,9 @@ std::vector<int> write_key_and_eye_views(const fs::path& folder, const Scene& sc
     const std::vector<const std::vector<ObjectFrameEdit>*> frames{&edit.frames[0], &edit.frames[1]};
     const std::vector<ObjectSource*> sources{&a, &b};
     choose_meeting_frames(scene, views, frames, sources);
-    write_key_views(folder, scene, {"A", "B"}, views, frames, sources);
+    const std::vector<KeyCamera> cameras = write_key_views(folder, scene, {"A", "B"}, views, frames, sources);
     write_eye_views(folder, scene, {"A", "B"}, views, frames, sources);
-    std::vector<int> shown;
-    for (const KeyView& v : views) shown.push_back(v.frame);
-    return shown;
+    return key_views_json(views, cameras, {"A", "B"});
 }
 
 namespace {

@@ -55,8 +55,8 @@ void write_frame_checks_csv(const std::filesystem::path& path, const EditResult&
 int write_scene_frames(const std::filesystem::path& folder, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
 // The key views and eye views of a two-object edit, at the frame of each key segment where the
-// parts meet (src/results/key_views.hpp). Returns the frames shown.
-std::vector<int> write_key_and_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
+// parts meet (src/results/key_views.hpp). Returns result.json's "views".
+nlohmann::ordered_json write_key_and_eye_views(const std::filesystem::path& folder, const Scene& scene, const EditResult& edit, ObjectSource& a, ObjectSource& b);
 
 // `folder`/key_N_from_A.png and key_N_from_B.png: the paper's first-person views (its Fig. 8) at
 // the middle output frame of key segment N: from each performer's eye (its view track, moved with

@@ -34,8 +34,10 @@ Vec3 centroid(const TriangleMesh& mesh) {
     return mesh.vertices.empty() ? sum : Vec3(sum / double(mesh.vertices.size()));
 }
 
-// Whether the segment from `p` toward the camera (along -forward) crosses triangle (a, b, c):
-// Moeller-Trumbore with the ray's origin at p.
+// Whether the ray from `p` toward the camera crosses triangle (a, b, c) farther than kNearMeeting
+// from p (Moeller-Trumbore): surfaces within a few centimetres are the meeting's own surroundings
+// (a hand pressed to a hip), not a body standing in front of it.
+constexpr double kNearMeeting = 0.03;
 bool hides(const Vec3& p, const Vec3& toward_camera, const Vec3& a, const Vec3& b, const Vec3& c) {
     const Vec3 e1 = b - a, e2 = c - a, h = toward_camera.cross(e2);
     const double det = e1.dot(h);
@@ -46,7 +48,7 @@ bool hides(const Vec3& p, const Vec3& toward_camera, const Vec3& a, const Vec3& 
     const Vec3 q = s.cross(e1);
     const double v = toward_camera.dot(q) / det;
     if (v < 0 || u + v > 1) return false;
-    return e2.dot(q) / det > 1e-6;
+    return e2.dot(q) / det > kNearMeeting;
 }
 
 KeyCamera camera_at(const Eigen::Vector2d& across, double turn_deg, double raise_deg) {
@@ -90,10 +92,10 @@ Meeting find_meeting(const TriangleMesh& first, const TriangleMesh& second, cons
             if (d2 < best) best = d2, m.first = v, m.second = second.vertices[index];  // the first of equals: same on every run
         }
     }
-    const Vec3 between = centroid(second) - centroid(first), closest = m.second - m.first;
-    const Eigen::Vector2d d = between.head<2>().norm() > 0.01 ? Eigen::Vector2d(between.head<2>())
-                              : closest.head<2>().norm() > 0.005 ? Eigen::Vector2d(closest.head<2>())
-                                                                 : fallback_direction;
+    // The parts' centroids when they lie apart on the floor (hands reaching for each other);
+    // else (hands raised together, a part over another) the performers' own line.
+    const Vec3 between = centroid(second) - centroid(first);
+    const Eigen::Vector2d d = between.head<2>().norm() > 0.05 ? Eigen::Vector2d(between.head<2>()) : fallback_direction;
     m.direction = d.norm() > 1e-9 ? d.normalized() : Eigen::Vector2d::UnitX();
     return m;
 }
@@ -109,7 +111,7 @@ KeyCamera choose_key_camera(const TriangleMesh& scene, const std::vector<bool>& 
     best.blocked = std::numeric_limits<int>::max();
     for (double raise : {0.0, 20.0, 40.0})
         for (int step = 0; step <= 16; ++step) {
-            const double turn = (step + 1) / 2 * 10.0 * (step % 2 ? 1 : -1);
+            const double turn = step == 0 ? 0.0 : (step + 1) / 2 * 10.0 * (step % 2 ? 1 : -1);
             for (double side : {1.0, -1.0}) {
                 KeyCamera c = camera_at(side * across, turn, raise);
                 c.blocked = blocked_points(scene, far, samples, c.forward);
@@ -129,12 +131,14 @@ struct KeyPicture {
     std::vector<bool> meeting_part;  // per triangle of `scene`
     Meeting meeting;
     std::string caption;
+    KeyCamera camera;  // chosen when drawn
 };
 
 // Orthographic: every body fits an 800 x 600 picture; far triangles first (equal depths keep mesh
 // order: the same bytes on every run); the meeting place ringed.
-void draw_key_picture(const KeyPicture& p) {
-    const KeyCamera c = choose_key_camera(p.scene, p.meeting_part, p.meeting);
+void draw_key_picture(KeyPicture& p) {
+    p.camera = choose_key_camera(p.scene, p.meeting_part, p.meeting);
+    const KeyCamera& c = p.camera;
     Eigen::AlignedBox2d extent;
     for (const Vec3& v : p.scene.vertices) extent.extend(Eigen::Vector2d(v.dot(c.right), v.dot(c.up)));
     if (c.raise_deg == 0) extent.extend(Eigen::Vector2d(extent.min().x(), 0.0));  // the floor
@@ -224,8 +228,8 @@ void choose_meeting_frames(const Scene& scene, std::vector<KeyView>& views, cons
     }
 }
 
-void write_key_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
-                     const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources) {
+std::vector<KeyCamera> write_key_views(const fs::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
+                                       const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources) {
     fs::create_directories(folder);
     // Meshes are gathered on this thread (an ObjectSource caches as it reads); pictures drawn on every core.
     std::vector<KeyPicture> pictures;
@@ -250,6 +254,23 @@ void write_key_views(const fs::path& folder, const Scene& scene, const std::vect
                                 1000 * (p.meeting.second - p.meeting.first).norm());
     }
     parallel_for(pictures.size(), [&pictures](std::size_t i) { draw_key_picture(pictures[i]); });
+    std::vector<KeyCamera> cameras;
+    for (const KeyPicture& p : pictures) cameras.push_back(p.camera);
+    return cameras;
+}
+
+nlohmann::ordered_json key_views_json(const std::vector<KeyView>& views, const std::vector<KeyCamera>& cameras, const std::vector<std::string>& names) {
+    nlohmann::ordered_json out = nlohmann::ordered_json::array();
+    for (std::size_t v = 0; v < views.size(); ++v) {
+        const KeyView& view = views[v];
+        nlohmann::ordered_json entry = {{"key", view.key}, {"file", fmt::format("views/key_{}.png", view.key)}};
+        for (std::size_t o : {view.first, view.second}) entry[fmt::format("from_{}", names[o])] = fmt::format("views/key_{}_from_{}.png", view.key, names[o]);
+        entry["output_frame"] = view.frame;
+        if (v < cameras.size())
+            entry["camera"] = {{"turn_deg", cameras[v].turn_deg}, {"raise_deg", cameras[v].raise_deg}, {"meeting_points_hidden", cameras[v].blocked}};
+        out.push_back(entry);
+    }
+    return out;
 }
 
 }  // namespace amhv

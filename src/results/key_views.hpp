@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "src/results/edit_files.hpp"
 
 namespace amhv {
@@ -20,8 +22,8 @@ struct KeyCamera {
 };
 
 // Where two parts meet: the closest points of their surfaces, and the horizontal direction from the
-// first part to the second (between their centroids; between the closest points when those lie
-// together).
+// first part to the second (between their centroids, when those lie 5 cm apart or more on the
+// floor; else `fallback_direction`, the performers' own line).
 struct Meeting {
     Vec3 first = Vec3::Zero(), second = Vec3::Zero();
     Eigen::Vector2d direction = Eigen::Vector2d::UnitX();
@@ -35,6 +37,10 @@ Meeting find_meeting(const TriangleMesh& first, const TriangleMesh& second, cons
 // parts' (`meeting_part[t]`), the least turned and raised first.
 KeyCamera choose_key_camera(const TriangleMesh& scene, const std::vector<bool>& meeting_part, const Meeting& meeting);
 
+// result.json's "views": per key view its files, output frame, meeting gap and camera (turn,
+// raise, and how many of the meeting's three points a body hides: 0 when it is in plain view).
+nlohmann::ordered_json key_views_json(const std::vector<KeyView>& views, const std::vector<KeyCamera>& cameras, const std::vector<std::string>& names);
+
 // Sets each view's frame to the output frame of its key segment where the pair's parts come
 // closest (the first of equals nearest the segment's middle): a `0&0b` segment touches at some
 // frame, not at its middle.
@@ -42,8 +48,8 @@ void choose_meeting_frames(const Scene& scene, std::vector<KeyView>& views, cons
                            const std::vector<ObjectSource*>& sources);
 
 // Every key view of `views` (one per key segment: its frame and its pair) from the objects'
-// frames; `names[o]` and `sources[o]` for object o. Drawn on every core.
-void write_key_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names,
+// frames; `names[o]` and `sources[o]` for object o. Drawn on every core. Returns each view's camera.
+std::vector<KeyCamera> write_key_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names,
                      const std::vector<KeyView>& views, const std::vector<const std::vector<ObjectFrameEdit>*>& frames,
                      const std::vector<ObjectSource*>& sources);
 

@@ -139,7 +139,7 @@ void add_object_paths(std::vector<Shape>& shapes, const PathsObject& object, Col
         shapes.push_back(thick);
         const Eigen::Vector2d at = pixel(frames[std::size_t(first)].edited_root);
         shapes.push_back(dot(at, colour, 4));
-        shapes.push_back(text(at + Eigen::Vector2d(7, -7), fmt::format("key {}", key), colour));
+        shapes.push_back(text(at + Eigen::Vector2d(7, -7), fmt::format("{}: key {}", object.name, key), colour));
     }
 }
 
@@ -162,8 +162,8 @@ double add_legend(std::vector<Shape>& shapes, const std::vector<PathsObject>& ob
     double x = left;
     shapes.push_back(line({{x, y}, {x + 36, y}}, kAxis, 6));
     shapes.push_back(dot({x, y}, kAxis, 4));
-    shapes.push_back(text({x + 44, y + 4}, "key segment N, from its first frame"));
-    x += 44 + text_width("key segment N, from its first frame", kText) + 24;
+    shapes.push_back(text({x + 44, y + 4}, "key segment N, labelled at its first frame"));
+    x += 44 + text_width("key segment N, labelled at its first frame", kText) + 24;
     shapes.push_back(line({{x, y + 6}, {x + 14, y - 6}}, kAxis, 1));
     shapes.push_back(text({x + 22, y + 4}, "facing, every 10 output frames"));
     x += 22 + text_width("facing, every 10 output frames", kText) + 24;

@@ -59,17 +59,6 @@ Json capture_keys_json(const KeySegment& segment) {
             {"visibility_frames", segment.visibility.frames}};
 }
 
-// views/key_N.png and the output frame each shows.
-Json views_json(const std::vector<int>& frames) {
-    Json views = Json::array();
-    for (std::size_t i = 0; i < frames.size(); ++i)
-        views.push_back({{"file", fmt::format("views/key_{}.png", i + 1)},
-                         {"from_A", fmt::format("views/key_{}_from_A.png", i + 1)},
-                         {"from_B", fmt::format("views/key_{}_from_B.png", i + 1)},
-                         {"output_frame", frames[i]}});
-    return views;
-}
-
 // The entry of key segment `key` in result.json, checked against the scene.
 const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySegment& key, const std::string& where) {
     const nlohmann::json* s = nullptr;
@@ -248,7 +237,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"scene_fps", files.glb ? nlohmann::json(files.glb_fps) : nlohmann::json(nullptr)},
                       {"bvh", files.bvh},
                       {"paths", {"paths.svg", "paths.png"}},
-                      {"views", views_json(files.view_frames)}};
+                      {"views", files.views}};
     if (files.obj_files > 0) json["output"]["obj_files"] = files.obj_files;
 }
 

@@ -44,7 +44,7 @@ struct EditFiles {
     std::vector<std::string> bvh;  // A.bvh, B.bvh: the edited takes
     std::uint64_t glb_bytes = 0;
     double glb_fps = 0;  // the frame rate scene.glb plays at
-    std::vector<int> view_frames;  // views/key_N.png: the output frame each shows
+    Json views = Json::array();  // views/key_N.png: the output frame each shows, its camera
 };
 
 // Adds the edit to a result: per key segment the chosen pose, its error from the truth and the

@@ -2,6 +2,11 @@
 
 #include <algorithm>
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "src/core/error.hpp"
+
 namespace amhv {
 
 TriangleMesh part_surface(ObjectSource& source, const PartSpec& spec, int number) {
@@ -48,6 +53,23 @@ std::vector<bool> part_triangles(ObjectSource& source, const PartSpec& spec, int
         }
     }
     return out;
+}
+
+void check_part_names(const Scene& scene, const std::vector<ObjectSource*>& sources) {
+    for (const KeySegment& key : scene.segments)
+        for (int side = 0; side < 2; ++side) {
+            const std::string& name = key.pair[std::size_t(side)];
+            const auto at = std::find_if(scene.objects.begin(), scene.objects.end(), [&](const SceneObject& o) { return o.name == name; });
+            if (at == scene.objects.end()) continue;
+            ObjectSource& source = *sources[std::size_t(at - scene.objects.begin())];
+            source.frame_parts(side == 0 ? key.a[0] : key.b[0]);  // a labelled sequence learns its names from its frames
+            const std::vector<std::string>& known = source.label_names();
+            for (const PartSpec* spec : {side == 0 ? &key.interest_a : &key.interest_b, side == 0 ? &key.fidelity_a : &key.fidelity_b})
+                for (const std::string& label : spec->labels)
+                    if (std::find(known.begin(), known.end(), label) == known.end())
+                        fail(fmt::format("{}:{}", scene.file.string(), key.line), "segments[{}]: object {} has no part '{}'; its parts are {}", key.index,
+                             name, printable(label), known.empty() ? std::string("none (it has no labels)") : fmt::format("{}", fmt::join(known, ", ")));
+        }
 }
 
 }  // namespace amhv

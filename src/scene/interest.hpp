@@ -19,4 +19,10 @@ TriangleMesh part_surface(ObjectSource& source, const PartSpec& spec, int number
 // them): whether it belongs to `spec`'s part. A part given as its own mesh sequence marks none.
 std::vector<bool> part_triangles(ObjectSource& source, const PartSpec& spec, int number);
 
+// Every part name the key segments give (interest and fidelity, parts and parts_except) is one of
+// its object's parts (`sources[o]` for scene.objects[o]; a labelled mesh sequence's names from the
+// first frame of each key segment): else one line naming the scene's line, the object and the
+// part, with the parts the object has.
+void check_part_names(const Scene& scene, const std::vector<ObjectSource*>& sources);
+
 }  // namespace amhv
