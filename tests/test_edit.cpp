@@ -276,7 +276,8 @@ TEST(Edit, TransformsReproduceTheChosenPoseAndTheMeshesFollowThem) {
     ASSERT_GT(seg.at("solutions").get<int>(), 0);
     const auto& chosen = seg.at("chosen");
     // The chosen pose is one row of the solution group.
-    const std::string row = fmt::format("{:.6f},{:.6f},{:.6f},", chosen.at("x").get<double>(), chosen.at("y").get<double>(), chosen.at("theta_deg").get<double>());
+    const std::string row = fmt::format("{:.6f},{:.6f},{:.6f},{:.6f},", chosen.at("x").get<double>(), chosen.at("y").get<double>(),
+                                        chosen.at("z").get<double>(), chosen.at("theta_deg").get<double>());
     EXPECT_NE(read_text(out / "segment_1/solutions.csv").find(fmt::format("\n{}", row)), std::string::npos) << row;
     ASSERT_EQ(transforms.at("frames").get<int>(), 40);
     ASSERT_EQ(transforms.at("output").size(), 40u);

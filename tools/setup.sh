@@ -15,9 +15,10 @@ case "${1:-}" in
   *) echo "setup: unknown option '$1' (use --run, or nothing for everything)" >&2; exit 2 ;;
 esac
 
-# Building and running amhv (the demo writes its page, so three.js comes too).
+# Building and running amhv (the demo writes its page, so three.js comes too: fetched from the
+# npm registry with curl and checked against its pinned SHA-512, no Node.js needed).
 packages=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git curl ca-certificates
   libvulkan-dev mesa-vulkan-drivers glslang-tools
   libeigen3-dev libopenmesh-dev libopenexr-dev libpng-dev libcairo2-dev libfreetype-dev fonts-dejavu-core
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
@@ -25,7 +26,7 @@ packages=(
   libtinygltf-dev libnanoflann-dev zlib1g-dev
   libcpp-httplib-dev   # the page server of `amhv view --serve`
 )
-npm_tools=("three@0.147.0")
+npm_tools=()
 if [ "$profile" = all ]; then
   packages+=(
     vulkan-validationlayers vulkan-tools glslang-dev spirv-tools
@@ -37,19 +38,38 @@ if [ "$profile" = all ]; then
   )
   # The Khronos glTF validator, for the tests that validate every scene.glb.
   npm_tools+=("gltf-validator@2.0.0-dev.3.10")
+  # Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
+  # nodejs bundles npm and conflicts with Debian's npm package).
+  command -v node >/dev/null 2>&1 || packages+=(nodejs)
+  command -v npm >/dev/null 2>&1 || packages+=(npm)
 fi
-# Node.js and npm from Debian, unless the machine already has them (e.g. from NodeSource, whose
-# nodejs bundles npm and conflicts with Debian's npm package).
-command -v node >/dev/null 2>&1 || packages+=(nodejs)
-command -v npm >/dev/null 2>&1 || packages+=(npm)
 
-# From the npm registry, into tools/npm/ (ignored by git), pinned: three.js, which `amhv edit`
-# copies beside the page it writes (r147: the last with classic scripts, which a page opened from
-# file:// may load), and (for the tests) the glTF validator.
+# three.js r147 (the last with classic scripts, which a page opened from file:// may load), which
+# `amhv edit` copies beside the page it writes: the registry's tarball, its integrity pinned.
+three_version=0.147.0
+three_sha512=2cf4ceb256105c5926bdc7908c54cd9d55658b62da545e82f7d3efdf87c9ca9a7c35b40b6d396edca8a7674cd4460852e7311e84af95432bd6b8f67f4a6f1fcf
+install_three() {
+  local dir tmp
+  dir="$(cd "$(dirname "$0")" && pwd)/npm/node_modules/three"
+  if [ -f "$dir/package.json" ] && grep -q "\"version\": \"$three_version\"" "$dir/package.json"; then
+    echo "setup: three@$three_version already in tools/npm"
+    return
+  fi
+  echo "setup: fetching three@$three_version into tools/npm from the npm registry"
+  tmp="$(mktemp -d)"
+  curl -fsSL --retry 3 -o "$tmp/three.tgz" "https://registry.npmjs.org/three/-/three-$three_version.tgz"
+  echo "$three_sha512  $tmp/three.tgz" | sha512sum -c --quiet - || { echo "setup: three.js tarball fails its checksum" >&2; rm -rf "$tmp"; exit 1; }
+  rm -rf "$dir" && mkdir -p "$dir"
+  tar -xzf "$tmp/three.tgz" -C "$dir" --strip-components=1
+  rm -rf "$tmp"
+}
+
+# From the npm registry, into tools/npm/ (ignored by git), pinned: (for the tests) the glTF
+# validator, then three.js (after npm, which removes packages it did not install).
 install_npm_tools() {
   local prefix tool name
   prefix="$(cd "$(dirname "$0")" && pwd)/npm"
-  for tool in "${npm_tools[@]}"; do
+  for tool in "${npm_tools[@]+"${npm_tools[@]}"}"; do
     name="${tool%@*}"
     if [ -f "$prefix/node_modules/$name/package.json" ] && grep -q "\"version\": \"${tool##*@}\"" "$prefix/node_modules/$name/package.json"; then
       echo "setup: $tool already in tools/npm"
@@ -58,6 +78,7 @@ install_npm_tools() {
     echo "setup: installing $tool into tools/npm from the npm registry"
     npm install --no-audit --no-fund --loglevel=error --prefix "$prefix" "$tool" >/dev/null
   done
+  install_three
 }
 
 missing=()

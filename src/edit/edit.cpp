@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <numeric>
 
@@ -17,6 +18,7 @@
 #include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
 #include "src/edit/frame_check.hpp"
+#include "src/edit/natural.hpp"
 #include "host/choose/chain_alternatives.hpp"
 #include "host/paths/path_opt.hpp"
 #include "src/sweep/pose_map.hpp"
@@ -203,7 +205,7 @@ void fill_solutions(const KeySweep& s, ChainSolutions& out) {
 // --allow-empty becomes the one state of B's captured placement on the lattice (`captured`, its
 // angle index in `captured_k`).
 std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditOptions& options,
-                                     std::vector<bool>& captured, std::vector<int>& captured_k) {
+                                     const std::vector<std::vector<double>>& natural, std::vector<bool>& captured, std::vector<int>& captured_k) {
     const double h = scene.sampling.voxel;
     const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
     const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
@@ -224,11 +226,16 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         fill_solutions(s, c.solutions);
         // The editor's placements leave B's height as captured (z = 0): with z_range the prior
         // gains mu z^2, so that among equal poses the one least raised or lowered wins.
-        if (key.intent.prefers() || s.group.any_raised()) {
+        // The natural choice (section 7b) adds natural_weight() times each member's score.
+        const bool scored = i < natural.size() && !natural[i].empty();
+        const double natural_scale = natural_weight(scene, key);
+        if (key.intent.prefers() || s.group.any_raised() || scored) {
             c.extra_unary.reserve(s.group.size());
+            std::size_t n = 0;
             s.group.for_each([&](const PoseIndex& p) {
                 const Solution sol = s.describe(p);
-                c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z);
+                const double score = scored ? natural_scale * natural[i][n++] : 0.0;
+                c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z + score);
             });
         }
         if (!c.solutions.empty()) continue;
@@ -508,6 +515,66 @@ std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vec
     return stuck;
 }
 
+// The scene's [truth] as a pose of the sweep's lattice (nearest x, y and angle step, not raised).
+PoseIndex truth_pose(const Scene& scene, const KeySweep& s) {
+    const Placement& t = *scene.truth;
+    const double h = scene.sampling.voxel, step = scene.sampling.angle_step_deg;
+    const Eigen::Vector2d offset = rotate(radians(t.yaw_deg), xy(s.root_b)) + Eigen::Vector2d(t.x, t.y) - xy(s.root_a);
+    const int angles = scene.sampling.angles();
+    const int k = ((int(std::lround(t.yaw_deg / step)) % angles) + angles) % angles;
+    return {int(std::lround(offset.x() / h)), int(std::lround(offset.y() / h)), k, 0};
+}
+
+// Every key segment's natural scores (docs/method.md section 7b), when weights.natural > 0: the
+// members' costs for the DP, and the chosen and runner-up members' terms for result.json.
+struct NaturalChoice {
+    std::vector<std::unique_ptr<NaturalScorer>> scorers;
+    std::vector<std::vector<double>> costs;
+    double seconds = 0;
+
+    NaturalChoice(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditResult& r, ObjectSource& a, ObjectSource& b,
+                  Voxeliser& voxeliser) {
+        if (!(scene.weights.natural > 0)) return;
+        const auto t0 = std::chrono::steady_clock::now();
+        for (std::size_t i = 0; i < sweeps.size(); ++i) {
+            const KeySegment& key = scene.segments[i];
+            scorers.push_back(std::make_unique<NaturalScorer>(key, sweeps[i], natural_frames(r, key.index, scene.a.fps), a, b, voxeliser,
+                                                              scene.sampling.angles()));
+            costs.push_back(scorers.back()->costs(sweeps[i].group));
+        }
+        seconds = seconds_since(t0);
+    }
+
+    void report(const Scene& scene, const std::vector<KeySweep>& sweeps, std::uint64_t sampled, EditResult& r) const {
+        r.natural_seconds = seconds;
+        r.natural.clear();
+        for (std::size_t i = 0; i < scorers.size(); ++i) {
+            NaturalReport n;
+            n.key = scene.segments[i].index;
+            n.weight = natural_weight(scene, scene.segments[i]);
+            const KeyEdit& k = r.keys[i];
+            if (!k.captured) n.chosen = scorers[i]->terms(sweeps[i].group.at(std::uint64_t(k.solution)));
+            std::uint64_t best = 0;
+            double best_cost = std::numeric_limits<double>::infinity();
+            for (std::uint64_t m = 0; m < costs[i].size(); ++m)
+                if (std::int64_t(m) != std::int64_t(k.solution) && costs[i][m] < best_cost) best = m, best_cost = costs[i][m];
+            if (std::isfinite(best_cost)) {
+                const PoseIndex p = sweeps[i].group.at(best);
+                n.has_runner_up = true;
+                n.runner_up = scorers[i]->terms(p);
+                n.runner_up_pose = sweeps[i].describe(p);
+            }
+            if (scene.truth) {
+                n.has_truth = true;
+                n.truth = scorers[i]->terms(truth_pose(scene, sweeps[i]));
+            }
+            n.stride = std::max<std::uint64_t>(1, (costs[i].size() + sampled - 1) / std::max<std::uint64_t>(1, sampled));
+            for (std::uint64_t m = 0; m < costs[i].size(); m += n.stride) n.sampled.push_back(float(costs[i][m]));
+            r.natural.push_back(std::move(n));
+        }
+    }
+};
+
 }  // namespace
 
 EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser,
@@ -522,13 +589,14 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     frame_roots_and_facings(scene, sources, voxeliser, r);
     r.roots_seconds = seconds_since(t0);
 
+    const NaturalChoice natural(scene, sweeps, r, a, b, voxeliser);
     // One solution per key segment (docs/method.md section 7); again without the key poses around a
     // transition that cannot be freed (section 8a), up to kMaxKeyChoices choices.
     t0 = std::chrono::steady_clock::now();
     const ChainWeights weights = chain_weights(scene);
     std::vector<bool> captured;
     std::vector<int> captured_k;
-    const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, captured, captured_k);
+    const std::vector<ChainSegment> chain = make_chain(scene, sweeps, options, natural.costs, captured, captured_k);
     ChainAlternatives alternatives(chain, weights);
     r.dp_seconds = seconds_since(t0);
     r.voxel = scene.sampling.voxel;
@@ -544,7 +612,10 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
                                     first_stuck, r.choices_tried - 1));
         r.choice = std::move(*choice);
         const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
-        if (!stuck) return r;
+        if (!stuck) {
+            natural.report(scene, sweeps, options.natural_sampled, r);
+            return r;
+        }
         if (first_stuck.empty()) first_stuck = stuck->message;
         if (r.choices_tried == kMaxKeyChoices)
             throw Error(fmt::format("{}, and so did the next {} choices of the key poses without the ones around it; change the key segments "

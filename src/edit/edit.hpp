@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "src/voxelise/voxelise.hpp"
+#include "src/edit/natural_terms.hpp"
 #include "src/edit/timeline.hpp"
 #include "host/choose/chain_dp.hpp"
 #include "src/scene/segment.hpp"
@@ -92,6 +93,9 @@ struct EditOptions {
     // A multi-party stage (docs/method.md section 11): A (the objects placed so far) keeps every frame
     // where it is; its path is not bent (the DP's w_A should be infinite and its rotations {0}).
     bool fixed_a = false;
+    // The natural scores kept for the page: every member up to this many, else every n-th by rank
+    // (NaturalReport::sampled), as the page plots the group.
+    std::uint64_t natural_sampled = 20000;
 };
 
 struct EditResult {
@@ -106,6 +110,8 @@ struct EditResult {
     // Choices of the key poses tried (docs/method.md section 8a): 1 unless a transition could not
     // be freed and the DP chose again without the key poses around it.
     int choices_tried = 1;
+    std::vector<NaturalReport> natural;  // per key segment, when weights.natural > 0
+    double natural_seconds = 0;
     double roots_seconds = 0, dp_seconds = 0, path_seconds = 0, check_seconds = 0;
 };
 

@@ -201,11 +201,18 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     EditOptions edit_options;
     edit_options.allow_empty = options.allow_empty;
     edit_options.allow_transition_overlap = options.allow_transition_overlap;
+    edit_options.natural_sampled = kPagePlottedMembers;
     EditResult edit = edit_scene(scene, stage.sweeps, a, b, backends.voxeliser, edit_options);
     if (!options.from_sweep.empty()) verify_chosen_poses(scene, edit, a, b, backends, options.from_sweep);
 
     auto t0 = std::chrono::steady_clock::now();
     write_transforms_json(out / "transforms.json", scene, edit);
+    // The natural scores of the members the page plots (docs/method.md section 7b).
+    for (const NaturalReport& n : edit.natural) {
+        const fs::path dir = out / fmt::format("segment_{}", n.key);
+        fs::create_directories(dir);
+        results::write_json_file(dir / "natural.json", {{"stride", n.stride}, {"costs", n.sampled}});
+    }
     write_frame_checks_csv(out / "frames.csv", edit);
     results::EditFiles files;
     files.frames = options.frames;
@@ -233,7 +240,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     results::add_edit(json, edit, files);
     const double output_seconds = seconds_since(t0) + stage.output_seconds;
     if (options.timings)
-        json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"dp", edit.dp_seconds},
+        json["timings_s"] = {{"mhv", stage.mhv_seconds + edit.roots_seconds}, {"sweep", stage.sweep_seconds}, {"natural", edit.natural_seconds}, {"dp", edit.dp_seconds},
                              {"path", edit.path_seconds}, {"check", edit.check_seconds}, {"output", output_seconds}, {"total", seconds_since(start)}};
     results::write_json_file(out / "result.json", json);
     if (options.page && options.glb) write_view_page(out, out);  // reads the files above

@@ -53,9 +53,22 @@ Json read_json(const fs::path& file) {
     }
 }
 
+// The natural scores of the plotted members (segment_N/natural.json, written by the edit), or
+// null when the edit wrote none or they do not match the group's stride and count.
+Json natural_costs(const fs::path& file, std::uint64_t stride, std::size_t rows) {
+    if (!fs::is_regular_file(file)) return nullptr;
+    const Json natural = read_json(file);
+    if (!natural.is_object() || !natural.contains("stride") || !natural.contains("costs") || !natural["costs"].is_array() ||
+        natural["stride"] != stride || natural["costs"].size() != rows)
+        fail(file.string(), "does not match the group it scores (stride {}, {} members shown)", stride, rows);
+    for (const Json& c : natural["costs"])
+        if (!c.is_number()) fail(file.string(), "holds a score that is not a number");
+    return natural["costs"];
+}
+
 // Every group member up to kPagePlottedMembers, else every n-th by rank: x, y, z, theta, L,
-// thetaA, thetaB.
-Json group_rows(const fs::path& dir, const Json& segment) {
+// thetaA, thetaB, and the natural score when the edit wrote them (`edit_dir`).
+Json group_rows(const fs::path& dir, const fs::path& edit_dir, const Json& segment) {
     const int index = segment.at("index").get<int>();
     const GroupRead group = read_group(dir, index);
     const std::uint64_t members = group.group.size();
@@ -69,6 +82,9 @@ Json group_rows(const fs::path& dir, const Json& segment) {
     });
     Json out = {{"index", index}, {"members", members}, {"shown", rows.size()}, {"stride", stride}, {"voxel", group.lattice.voxel},
                 {"angle_step_deg", group.lattice.angle_step_deg}, {"rows", std::move(rows)}};
+    const Json costs = natural_costs(edit_dir / fmt::format("segment_{}", index) / "natural.json", stride, out["shown"].get<std::size_t>());
+    if (!costs.is_null())
+        for (std::size_t r = 0; r < costs.size(); ++r) out["rows"][r].push_back(costs[r]);
     const fs::path montage = fs::path(fmt::format("segment_{}", index)) / "feasibility" / "montage.png";
     if (fs::is_regular_file(dir / montage)) out["montage"] = montage.generic_string();
     return out;
@@ -92,7 +108,7 @@ std::string page_data(const fs::path& dir) {
             fail((dir / "result.json").string(), "reused the sweep in '{}', which holds the groups the page plots and is gone", groups_dir.string());
     }
     Json groups = Json::array();
-    for (const Json& segment : result.at("segments")) groups.push_back(group_rows(groups_dir, segment));
+    for (const Json& segment : result.at("segments")) groups.push_back(group_rows(groups_dir, dir, segment));
     const Json data = {{"result", result},
                        {"transforms", {{"frames", transforms.at("frames")}, {"segments", transforms.at("segments")}}},
                        {"roots", std::move(roots)},

@@ -158,7 +158,7 @@ Json result_header(const Scene& scene, const std::string& backend, const std::st
                           {"x_range_m", scene.sampling.x_range ? nlohmann::json(*scene.sampling.x_range) : nlohmann::json(nullptr)},
                           {"y_range_m", scene.sampling.y_range ? nlohmann::json(*scene.sampling.y_range) : nlohmann::json(nullptr)},
                           {"weights", {{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
-                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", w.a_rotations_deg}}}};
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"natural", w.natural}, {"a_rotations_deg", w.a_rotations_deg}}}};
     return json;
 }
 
@@ -198,6 +198,28 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
     return s;
 }
 
+namespace {
+
+// The natural choice's terms (docs/method.md section 7b): null where a term does not apply.
+Json natural_terms_json(const NaturalTerms& t) {
+    auto value = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
+    return {{"cost", t.cost()}, {"gaze", value(t.gaze)}, {"depth_m", value(t.depth_m)}, {"sliding_m", value(t.sliding_m)},
+            {"crowding", value(t.crowding)}};
+}
+
+Json natural_json(const NaturalReport& n) {
+    Json out = {{"weight", n.weight}, {"chosen", natural_terms_json(n.chosen)}};
+    out["runner_up"] = nullptr;
+    if (n.has_runner_up) {
+        out["runner_up"] = natural_terms_json(n.runner_up);
+        out["runner_up"]["pose"] = solution_json(n.runner_up_pose);
+    }
+    if (n.has_truth) out["truth"] = natural_terms_json(n.truth);
+    return out;
+}
+
+}  // namespace
+
 void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
     for (std::size_t i = 0; i < edit.keys.size(); ++i) {
         const KeyEdit& k = edit.keys[i];
@@ -209,6 +231,8 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
             s["truth"]["chosen_error_m"] = std::hypot(dx, dy);
             s["truth"]["chosen_error_deg"] = angles::degrees_apart(k.chosen.theta_deg, s["truth"]["theta_deg"].get<double>());
         }
+        for (const NaturalReport& n : edit.natural)
+            if (n.key == k.index) s["natural"] = natural_json(n);
         s["edit"] = {{"a_rotation_deg", angles::degrees(k.a_rotation_rad)},
                      {"a_translation_m", {k.a_translation.x(), k.a_translation.y()}},
                      {"root_a_m", {k.root_a.x(), k.root_a.y()}},

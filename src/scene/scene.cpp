@@ -582,6 +582,7 @@ Scene load_scene(const fs::path& file) {
     w.w_a = weights.number("w_A", 0, 1e12, false).value_or(w.w_a);
     w.w_b = weights.number("w_B", 0, 1e12, false).value_or(w.w_b);
     w.mu = weights.number("mu", 0, 1e6).value_or(w.mu);
+    w.natural = weights.number("natural", 0, 1e6).value_or(w.natural);
     if (weights.has("a_rotations_deg")) {
         const toml::node* node = weights.get("a_rotations_deg");
         const toml::array* array = node->as_array();
@@ -655,7 +656,7 @@ std::string resolved_toml(const Scene& scene) {
     toml::array rotations;
     for (double r : w.a_rotations_deg) rotations.push_back(r);
     root.insert("weights", toml::table{{"lambda", w.lambda}, {"delta", w.delta}, {"alpha", w.alpha}, {"v_c", w.v_c}, {"r_c", w.r_c},
-                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"a_rotations_deg", rotations}});
+                                       {"w_A", w.w_a}, {"w_B", w.w_b}, {"mu", w.mu}, {"natural", w.natural}, {"a_rotations_deg", rotations}});
     toml::table objects;
     for (const SceneObject& object : scene.objects) {
         const SceneObject* o = &object;

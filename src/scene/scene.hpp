@@ -114,6 +114,7 @@ struct Weights {
     double r_c = 0.05;    // radians per frame
     double w_a = 1.0, w_b = 1.0;
     double mu = 1e-6;     // tie-breaking prior toward the editor's placement
+    double natural = 10;  // the natural choice's weight (docs/method.md section 7b); 0: off
     std::vector<double> a_rotations_deg{0.0};
 };
 

@@ -91,8 +91,8 @@ SegmentBuild build_segment(const Scene& scene, const KeySegment& segment, Object
 // Mean gaze over `frames` projected onto the floor, or the constant facing, or +x.
 Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int>& frames);
 
-// The editor's intent on one solution (docs/method.md section 7, "Intent"): weight x 0.1 x the sum
-// of ((L - L0) / 10 cm)^2, (thetaA - thetaA0) / 10 deg)^2 and ((thetaB - thetaB0) / 10 deg)^2 over the
+// The editor's intent on one solution (docs/method.md section 7, "Intent"): weight x the sum of
+// ((L - L0) / 5 cm)^2, ((thetaA - thetaA0) / 5 deg)^2 and ((thetaB - thetaB0) / 5 deg)^2 over the
 // descriptors it names (angles the short way round). 0 without prefer.
 double intent_cost(const Intent& intent, const Solution& solution);
 // Whether a solution's descriptors lie within the intent's limits (always, without limits).

@@ -128,7 +128,7 @@
   }
 
   // ---- the solution groups ----
-  const columns = { x: 0, y: 1, z: 2, theta: 3, L: 4, thetaA: 5, thetaB: 6 };
+  const columns = { x: 0, y: 1, z: 2, theta: 3, L: 4, thetaA: 5, thetaB: 6, natural: 7 };
 
   function colourOf(t) {  // blue to red, as the EXR slices
     const ramp = (x) => Math.max(0, Math.min(1, 1.5 - Math.abs(x)));
@@ -219,6 +219,7 @@
   function segmentSection(seg, group) {
     const section = document.createElement('section');
     const rows = group.rows;
+    const scored = rows.length > 0 && rows[0].length > columns.natural;
     const title = document.createElement('h2');
     title.textContent = 'Key segment ' + seg.index + ' (' + seg.type + '): ' + seg.solutions.toLocaleString('en') + ' solutions among ' +
       seg.poses_tested.toLocaleString('en') + ' poses';
@@ -229,10 +230,14 @@
       (group.shown < group.members ? '<p>Plotted: every ' + group.stride + 'th of the ' + group.members.toLocaleString('en') + ' members (by rank).</p>' : '') +
       '<p class="legend"><span><span class="swatch" style="background:#000"></span>chosen</span>' +
       (seg.truth ? '<span><span class="swatch" style="background:#1a9a3a"></span>truth (the captured placement)</span>' : '') +
-      '<span>colour: L, short (blue) to long (red)</span></p>';
+      (scored ? '<span>colour: the natural score, most plausible (blue) to least (red), on a log scale</span></p>'
+        : '<span>colour: L, short (blue) to long (red)</span></p>');
     section.appendChild(info);
-    const lRange = extent(rows, columns.L, columns.L);
-    const colour = (row) => colourOf((row[columns.L] - lRange[0]) / ((lRange[1] - lRange[0]) || 1));
+    // The natural score (docs/method.md section 7b) where the edit wrote it, on log(1 + score); else L.
+    const key = scored ? (row) => Math.log1p(row[columns.natural]) : (row) => row[columns.L];
+    let low = Infinity, high = -Infinity;
+    for (const row of rows) { low = Math.min(low, key(row)); high = Math.max(high, key(row)); }
+    const colour = (row) => colourOf((key(row) - low) / ((high - low) || 1));
     const chosen = seg.chosen;
     const descriptors = document.createElement('canvas');
     descriptors.className = 'plot';

@@ -1,0 +1,316 @@
+#include "src/edit/natural.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "src/core/angles.hpp"
+#include "src/core/parallel.hpp"
+#include "src/scene/interest.hpp"
+
+namespace amhv {
+
+namespace {
+
+double square(double v) { return v * v; }
+
+// The area-weighted centroid of a mesh's triangles (the vertex mean when it has no area).
+std::optional<Vec3> surface_centroid(const TriangleMesh& mesh) {
+    Vec3 sum = Vec3::Zero();
+    double area = 0;
+    for (const auto& t : mesh.triangles) {
+        const Vec3 &p = mesh.vertices[t[0]], &q = mesh.vertices[t[1]], &r = mesh.vertices[t[2]];
+        const double a = 0.5 * (q - p).cross(r - p).norm();
+        sum += a * (p + q + r) / 3.0;
+        area += a;
+    }
+    if (area > 0) return sum / area;
+    if (mesh.vertices.empty()) return std::nullopt;
+    for (const Vec3& v : mesh.vertices) sum += v;
+    return sum / double(mesh.vertices.size());
+}
+
+// At most `count` of the mesh's vertices, evenly strided (deterministic).
+std::vector<Vec3> sample_points(const TriangleMesh& mesh, std::size_t count) {
+    std::vector<Vec3> out;
+    const std::size_t n = mesh.vertices.size();
+    if (n == 0) return out;
+    const std::size_t stride = std::max<std::size_t>(1, (n + count - 1) / count);
+    for (std::size_t v = 0; v < n; v += stride) out.push_back(mesh.vertices[v]);
+    return out;
+}
+
+// One line of the squared distance transform: d[q] = min_p (q - p)^2 + f[p].
+void transform_line(std::vector<double>& f, std::vector<double>& d, std::vector<int>& v, std::vector<double>& z) {
+    const int n = int(f.size());
+    int k = 0;
+    v[0] = 0;
+    z[0] = -std::numeric_limits<double>::infinity();
+    z[1] = std::numeric_limits<double>::infinity();
+    for (int q = 1; q < n; ++q) {
+        double s = ((f[std::size_t(q)] + q * q) - (f[std::size_t(v[std::size_t(k)])] + double(v[std::size_t(k)]) * v[std::size_t(k)])) /
+                   (2.0 * q - 2.0 * v[std::size_t(k)]);
+        while (s <= z[std::size_t(k)]) {
+            --k;
+            s = ((f[std::size_t(q)] + q * q) - (f[std::size_t(v[std::size_t(k)])] + double(v[std::size_t(k)]) * v[std::size_t(k)])) /
+                (2.0 * q - 2.0 * v[std::size_t(k)]);
+        }
+        ++k;
+        v[std::size_t(k)] = q;
+        z[std::size_t(k)] = s;
+        z[std::size_t(k) + 1] = std::numeric_limits<double>::infinity();
+    }
+    k = 0;
+    for (int q = 0; q < n; ++q) {
+        while (z[std::size_t(k) + 1] < q) ++k;
+        d[std::size_t(q)] = square(q - v[std::size_t(k)]) + f[std::size_t(v[std::size_t(k)])];
+    }
+}
+
+}  // namespace
+
+namespace detail {
+
+void distance_transform(std::vector<double>& f, const std::array<int, 3>& dims) {
+    const std::size_t nx = std::size_t(dims[0]), ny = std::size_t(dims[1]), nz = std::size_t(dims[2]);
+    const std::array<std::size_t, 3> stride{1, nx, nx * ny};
+    for (int axis = 0; axis < 3; ++axis) {
+        const std::size_t n = std::size_t(dims[std::size_t(axis)]);
+        std::vector<double> line(n), out(n), z(n + 1);
+        std::vector<int> v(n);
+        for (std::size_t c = 0; c < nz; ++c)
+            for (std::size_t b = 0; b < ny; ++b)
+                for (std::size_t a = 0; a < nx; ++a) {
+                    const std::size_t at = a + b * nx + c * nx * ny;
+                    // Each line once: from its first voxel along the axis.
+                    if ((axis == 0 && a != 0) || (axis == 1 && b != 0) || (axis == 2 && c != 0)) continue;
+                    for (std::size_t q = 0; q < n; ++q) line[q] = f[at + q * stride[std::size_t(axis)]];
+                    transform_line(line, out, v, z);
+                    for (std::size_t q = 0; q < n; ++q) f[at + q * stride[std::size_t(axis)]] = out[q];
+                }
+    }
+}
+
+}  // namespace detail
+
+double NaturalTerms::cost() const {
+    const double gaze_scale = 1.0 - std::cos(kNaturalGazeHalfAngleDeg * std::numbers::pi / 180.0);
+    double c = 0;
+    if (!std::isnan(gaze)) c += square(gaze / gaze_scale);
+    if (!std::isnan(depth_m)) c += square(depth_m / kNaturalDepthScale);
+    if (!std::isnan(sliding_m)) c += square(sliding_m / kNaturalSlidingScale);
+    if (!std::isnan(crowding)) c += crowding;
+    return c;
+}
+
+double natural_weight(const Scene& scene, const KeySegment& key) {
+    if (!(scene.weights.natural > 0)) return 0;
+    return key.intent.prefers() ? key.intent.weight : scene.weights.natural;
+}
+
+NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps) {
+    NaturalFrames out;
+    const auto seg = std::find_if(edit.timeline.segments.begin(), edit.timeline.segments.end(),
+                                  [&](const TimelineSegment& s) { return s.key == key_index; });
+    if (seg == edit.timeline.segments.end() || seg->length == 0) return out;
+    const int count = std::min(kNaturalFrames, seg->length);
+    for (int n = 0; n < count; ++n) {
+        const int m = seg->first + (count > 1 ? int(std::lround(double(n) * (seg->length - 1) / (count - 1))) : 0);
+        out.a.push_back(edit.frames[0][std::size_t(m)].source);
+        out.b.push_back(edit.frames[1][std::size_t(m)].source);
+    }
+    const int reach = std::max(1, int(std::lround(fps)));
+    for (int m = std::max(0, seg->first - reach); m < std::min(edit.timeline.length(), seg->first + seg->length + reach); ++m) {
+        if (m >= seg->first && m < seg->first + seg->length) continue;
+        out.around_a.push_back(edit.frames[0][std::size_t(m)].root);
+        out.around_b.push_back(edit.frames[1][std::size_t(m)].root);
+    }
+    return out;
+}
+
+std::array<int, 3> NaturalScorer::Field::cell(const Vec3& p) const {
+    const Vec3 u = (p - grid.origin) / grid.voxel;
+    return {int(std::floor(u.x())), int(std::floor(u.y())), int(std::floor(u.z()))};
+}
+
+double NaturalScorer::Field::at(int x, int y, int z) const {
+    if (x < 0 || y < 0 || z < 0 || x >= grid.dims[0] || y >= grid.dims[1] || z >= grid.dims[2]) return 0;
+    return depth[grid.index(x, y, z)];
+}
+
+NaturalScorer::NaturalScorer(const KeySegment& key, const KeySweep& sweep, const NaturalFrames& frames, ObjectSource& a, ObjectSource& b,
+                             Voxeliser& voxeliser, int angles)
+    : sweep_(sweep), frames_(frames), h_(sweep.describe.voxel), root_a_(sweep_root(sweep.root_a, sweep.describe.voxel)),
+      root_b_(sweep_root(sweep.root_b, sweep.describe.voxel)) {
+    if (frames_.a.empty()) return;
+    prepare_tracks(a, b);
+    prepare_depth(key, a, b, voxeliser);
+    // Bound the depth lookups of a large group (the paper scene's is tens of millions of members).
+    const double per_member = kNaturalLookups / std::max(1.0, double(sweep.group.size())) / double(frames_.a.size());
+    points_ = std::size_t(std::clamp(per_member, double(kNaturalMinPoints), double(kNaturalPoints)));
+    prepare_angles(key, a, b, angles);
+}
+
+void NaturalScorer::prepare_tracks(ObjectSource& a, ObjectSource& b) {
+    tracks_ = true;
+    for (std::size_t t = 0; t < frames_.a.size() && tracks_; ++t) {
+        const auto ta = a.track(frames_.a[t]), tb = b.track(frames_.b[t]);
+        if (!ta || !tb || ta->gaze.norm() < 1e-9 || tb->gaze.norm() < 1e-9) {
+            tracks_ = false;
+            break;
+        }
+        eyes_a_.push_back(ta->eye), gazes_a_.push_back(ta->gaze.normalized());
+        eyes_b_.push_back(tb->eye), gazes_b_.push_back(tb->gaze.normalized());
+    }
+}
+
+// A's interest part voxelised at each scored frame (by the edit's backend: both give the same
+// volume), each frame on a grid of its own, and the depth of every voxel inside it: the distance
+// from its centre to the nearest outside voxel's centre, less half a voxel.
+void NaturalScorer::prepare_depth(const KeySegment& key, ObjectSource& a, ObjectSource&, Voxeliser& voxeliser) {
+    if (key.interest_a.kind == PartSpec::Kind::WholeMinusInterest) return;
+    std::vector<MeshFrame> meshes(frames_.a.size());
+    std::vector<const MeshFrame*> pointers;
+    std::vector<VoxelGrid> grids;
+    for (std::size_t t = 0; t < frames_.a.size(); ++t) {
+        meshes[t].mesh = part_surface(a, key.interest_a, frames_.a[t]);
+        meshes[t].source = fmt::format("object {} frame {}", a.spec().name, frames_.a[t]);
+        if (meshes[t].mesh.triangles.empty()) return;
+        grids.push_back(grid_covering(meshes[t].mesh.bounds(), h_, meshes[t].source));
+        pointers.push_back(&meshes[t]);
+    }
+    const Voxeliser::ScratchHold hold(voxeliser);
+    const Amhv volume = voxelise(prepare_voxelisation_stacked(pointers, grids), voxeliser);
+    const VoxelGrid& stacked = volume.grid();
+    for (std::size_t t = 0; t < grids.size(); ++t) {
+        Field field{grids[t], {}};
+        const auto& d = grids[t].dims;
+        std::vector<double> f(grids[t].voxel_count());
+        for (int z = 0; z < d[2]; ++z)
+            for (int y = 0; y < d[1]; ++y)
+                for (int x = 0; x < d[0]; ++x) {
+                    const bool inside = (volume.plane(0)[stacked.index(x, y, z)] >> t) & 1u;
+                    f[grids[t].index(x, y, z)] = inside ? 1e30 : 0.0;
+                }
+        detail::distance_transform(f, d);
+        field.depth.resize(f.size());
+        for (std::size_t v = 0; v < f.size(); ++v) field.depth[v] = f[v] > 0 ? float((std::sqrt(f[v]) - 0.5) * h_) : 0.0f;
+        fields_.push_back(std::move(field));
+    }
+}
+
+void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, ObjectSource& b, int angles) {
+    const std::size_t n = frames_.a.size();
+    std::vector<std::vector<Vec3>> points(n);
+    std::vector<std::optional<Vec3>> centroid_a(n), centroid_b(n);
+    for (std::size_t t = 0; t < n; ++t) {
+        const TriangleMesh surface_b = part_surface(b, key.interest_b, frames_.b[t]);
+        if (!fields_.empty()) points[t] = sample_points(surface_b, points_);
+        centroid_b[t] = surface_centroid(surface_b);
+        centroid_a[t] = surface_centroid(part_surface(a, key.interest_a, frames_.a[t]));
+    }
+    const bool centroids = std::all_of(centroid_a.begin(), centroid_a.end(), [](auto& c) { return c.has_value(); }) &&
+                           std::all_of(centroid_b.begin(), centroid_b.end(), [](auto& c) { return c.has_value(); });
+    if (centroids)
+        for (const auto& c : centroid_a) centroids_a_.push_back(*c);
+    const bool sliding = key.type.variant == 'a' && n > 1 && centroids;
+    angles_.resize(std::size_t(angles));
+    parallel_for(std::size_t(angles), [&](std::size_t k) {
+        Angle& g = angles_[k];
+        const double theta = angles::radians(sweep_.describe.theta_deg(int(k)));
+        g.c = std::cos(theta), g.s = std::sin(theta);
+        auto turn = [&](const Vec3& v) { return Vec3(g.c * v.x() - g.s * v.y(), g.s * v.x() + g.c * v.y(), v.z()); };
+        const Vec3 planar_b(root_b_.x(), root_b_.y(), 0);
+        for (std::size_t t = 0; t < eyes_b_.size() && tracks_; ++t) g.eyes.push_back(turn(eyes_b_[t] - planar_b)), g.gazes.push_back(turn(gazes_b_[t]));
+        for (const Eigen::Vector2d& r : frames_.around_b) g.around.push_back(turn(Vec3(r.x() - root_b_.x(), r.y() - root_b_.y(), 0)));
+        // A member's offset is whole voxels from C^A, so a point's cell is its cell at C^A moved
+        // by (i, j, l): found once per angle.
+        if (!fields_.empty()) {
+            g.cells.resize(n);
+            const Vec3 at_a(root_a_.x(), root_a_.y(), 0);
+            for (std::size_t t = 0; t < n; ++t)
+                for (const Vec3& p : points[t]) g.cells[t].push_back(fields_[t].cell(turn(p - planar_b) + at_a));
+        }
+        if (centroids)
+            for (const auto& c : centroid_b) g.centroids.push_back(turn(*c - planar_b));
+        if (!sliding) return;
+        std::vector<Vec3> rel(n);
+        Vec3 mean = Vec3::Zero();
+        for (std::size_t t = 0; t < n; ++t) mean += rel[t] = turn(*centroid_b[t] - planar_b) - *centroid_a[t];
+        mean /= double(n);
+        double sum = 0;
+        for (const Vec3& r : rel) sum += (r - mean).squaredNorm();
+        g.sliding = std::sqrt(sum / double(n));
+    });
+}
+
+double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
+    // 1 - cos of the angle between unit `gaze` and the direction from `from` to `to` (0 when
+    // they coincide: nothing to look away from).
+    auto away = [](const Vec3& gaze, const Vec3& from, const Vec3& to) {
+        const Vec3 u = to - from;
+        const double length = u.norm();
+        return length < 1e-9 ? 0.0 : 1.0 - gaze.dot(u) / length;
+    };
+    double sum = 0;
+    for (std::size_t t = 0; t < g.eyes.size(); ++t) {
+        const Vec3 eye_b = g.eyes[t] + offset;
+        double a = away(gazes_a_[t], eyes_a_[t], eye_b), b = away(g.gazes[t], eye_b, eyes_a_[t]);
+        if (!g.centroids.empty()) {
+            const Vec3 contact = 0.5 * (centroids_a_[t] + g.centroids[t] + offset);
+            a = std::min(a, away(gazes_a_[t], eyes_a_[t], contact));
+            b = std::min(b, away(g.gazes[t], eye_b, contact));
+        }
+        sum += a + b;
+    }
+    return sum / (2.0 * double(g.eyes.size()));
+}
+
+double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
+    double sum = 0;
+    for (std::size_t t = 0; t < g.cells.size(); ++t) {
+        double deepest = 0;
+        for (const auto& c : g.cells[t]) deepest = std::max(deepest, fields_[t].at(c[0] + pose.i, c[1] + pose.j, c[2] + pose.l));
+        sum += deepest;
+    }
+    return sum / double(g.cells.size());
+}
+
+double NaturalScorer::crowding(const Angle& g, const Vec3& offset) const {
+    double sum = 0;
+    for (std::size_t m = 0; m < g.around.size(); ++m) {
+        const Eigen::Vector2d d(g.around[m].x() + offset.x() - frames_.around_a[m].x(), g.around[m].y() + offset.y() - frames_.around_a[m].y());
+        sum += square(std::max(0.0, kIntimateDistance - d.norm()) / kNaturalCrowdingScale);
+    }
+    return sum / double(g.around.size());
+}
+
+NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {
+    NaturalTerms out;
+    if (angles_.empty()) return out;
+    const Angle& g = angles_[std::size_t(pose.k)];
+    // B's point q goes to R(theta) (q - C^B) + C^A + (i h, j h, l h): the samples are turned about
+    // C^B already; the offset adds the rest.
+    const Vec3 offset(root_a_.x() + pose.i * h_, root_a_.y() + pose.j * h_, pose.l * h_);
+    if (tracks_ && !g.eyes.empty()) out.gaze = gaze(g, offset);
+    if (!g.cells.empty()) out.depth_m = depth(g, pose);
+    out.sliding_m = g.sliding;
+    if (!g.around.empty()) out.crowding = crowding(g, offset);
+    return out;
+}
+
+std::vector<double> NaturalScorer::costs(const SolutionGroup& group) const {
+    constexpr std::uint64_t kChunk = std::uint64_t(1) << 16;
+    const std::uint64_t n = group.size();
+    std::vector<double> out(n);
+    parallel_for(std::size_t((n + kChunk - 1) / kChunk), [&](std::size_t chunk) {
+        std::uint64_t at = chunk * kChunk;
+        group.for_range(at, std::min(n, at + kChunk), [&](const PoseIndex& p) { out[at++] = cost(p); });
+    });
+    return out;
+}
+
+}  // namespace amhv

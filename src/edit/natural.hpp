@@ -1,0 +1,94 @@
+#pragma once
+// The natural choice inside a key segment's solution group (docs/method.md section 7b): for every
+// member, how far the placed pair is from what real people do at such a moment, as a sum of
+// squared, scaled terms that the DP adds to its unary cost (weights.natural). Each term is a
+// physical or social criterion with its unit and scale; a term that does not apply (no view
+// tracks, no held contact) is left out.
+//   gaze      joint attention: each head looks at the other's eyes or at the contact (the midpoint
+//             of the interest parts' centroids), whichever is nearer its gaze: mean over the key's
+//             frames and both heads of 1 - cos(angle), scale 1 - cos 30 deg (the default view
+//             cone's half angle);
+//   depth     contact that touches rather than merges: mean over the key's frames of the deepest
+//             point of B's interest part inside A's (metres), scale 1 cm;
+//   sliding   a held contact (0&0 (a)) moves together: RMS over the key's frames of the interest
+//             parts' relative offset about its mean (metres), scale 2 cm;
+//   crowding  outside the contact people keep out of each other's intimate zone: over the frames
+//             within one second before and after the key (the key's placement carried on), the
+//             mean of (max(0, 0.45 m - root distance on the floor) / 10 cm)^2.
+// Scores are computed on the host, in double precision, each member on its own: deterministic.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "src/edit/edit.hpp"
+#include "src/edit/natural_terms.hpp"
+#include "src/sweep/solution_group.hpp"
+#include "src/voxelise/voxelise.hpp"
+
+namespace amhv {
+
+// The frames a key segment's scores look at, from the edit's timeline and roots.
+struct NaturalFrames {
+    std::vector<int> a, b;  // source frames of the key's normalised frames (sampled)
+    std::vector<Eigen::Vector2d> around_a, around_b;  // roots (capture frames) of the frames around the key
+};
+NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps);
+
+// The weight of a key segment's natural score in the DP's unary cost: weights.natural, or where
+// the key segment states `prefer`, the intent's own weight (the editor's intent leads, and one
+// scale of a criterion counts as much as a 5 cm or 5 degree miss of it). 0 with weights.natural 0.
+double natural_weight(const Scene& scene, const KeySegment& key);
+
+class NaturalScorer {
+public:
+    NaturalScorer(const KeySegment& key, const KeySweep& sweep, const NaturalFrames& frames, ObjectSource& a, ObjectSource& b,
+                  Voxeliser& voxeliser, int angles);
+    NaturalTerms terms(const PoseIndex& pose) const;
+    double cost(const PoseIndex& pose) const { return terms(pose).cost(); }
+    // cost() of every member of `group`, in its order (in parallel; each member on its own).
+    std::vector<double> costs(const SolutionGroup& group) const;
+
+private:
+    struct Field {  // depth inside A's interest part at one frame (metres), on the frame's grid
+        VoxelGrid grid;
+        std::vector<float> depth;
+        std::array<int, 3> cell(const Vec3& p) const;  // the voxel holding p (may lie outside)
+        double at(int x, int y, int z) const;           // 0 outside the grid
+    };
+    struct Angle {  // B's samples turned by one angle, relative to C^B
+        double c = 1, s = 0;
+        std::vector<Vec3> eyes, gazes, around;
+        std::vector<Vec3> centroids;            // B's interest part's centroid per frame (empty: none)
+        std::vector<std::vector<std::array<int, 3>>> cells;  // B's points' voxels in A's field at C^A, per frame
+        double sliding = NaturalTerms::kNone;
+    };
+    void prepare_tracks(ObjectSource& a, ObjectSource& b);
+    void prepare_depth(const KeySegment& key, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser);
+    void prepare_angles(const KeySegment& key, ObjectSource& a, ObjectSource& b, int angles);
+    double gaze(const Angle& g, const Vec3& offset) const;
+    double depth(const Angle& g, const PoseIndex& pose) const;
+    double crowding(const Angle& g, const Vec3& offset) const;
+
+    const KeySweep& sweep_;
+    NaturalFrames frames_;
+    double h_;
+    Vec3 root_a_, root_b_;
+    bool tracks_ = false;
+    std::vector<Vec3> eyes_a_, gazes_a_, eyes_b_, gazes_b_;  // capture frames
+    std::vector<Vec3> centroids_a_;  // A's interest part's centroid per frame (empty: none)
+    std::vector<Field> fields_;                             // per frame (empty: no depth term)
+    std::vector<Angle> angles_;
+    std::size_t points_ = kNaturalPoints;
+};
+
+namespace detail {
+// Exact squared Euclidean distance transform (Felzenszwalb and Huttenlocher) of a 3D grid in voxels:
+// `f` holds 0 at the sites and a large value elsewhere; on return, the squared distance to the
+// nearest site. Exposed for its test against brute force.
+void distance_transform(std::vector<double>& f, const std::array<int, 3>& dims);
+}  // namespace detail
+
+}  // namespace amhv

@@ -1,0 +1,50 @@
+#pragma once
+// The natural choice's terms and scales (docs/method.md section 7b; src/edit/natural.hpp computes them).
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "src/sweep/problem.hpp"
+
+namespace amhv {
+
+inline constexpr double kNaturalGazeHalfAngleDeg = 30.0;
+inline constexpr double kNaturalDepthScale = 0.01;     // metres
+inline constexpr double kNaturalSlidingScale = 0.02;   // metres
+inline constexpr double kIntimateDistance = 0.45;      // metres (Hall's intimate zone)
+inline constexpr double kNaturalCrowdingScale = 0.10;  // metres
+// At most this many of the key's normalised frames are scored (evenly spaced, ends included).
+inline constexpr int kNaturalFrames = 16;
+// At most this many points of B's interest part per frame; fewer for large groups, so that a
+// group's depth lookups stay under kNaturalLookups (at least kNaturalMinPoints points per frame).
+inline constexpr int kNaturalPoints = 64;
+inline constexpr int kNaturalMinPoints = 4;
+inline constexpr double kNaturalLookups = 4e8;
+
+struct NaturalTerms {
+    static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    double gaze = kNone;       // 1 - cos, mean
+    double depth_m = kNone;    // metres
+    double sliding_m = kNone;  // metres
+    double crowding = kNone;   // already scaled and squared
+    // Sum over the terms that apply of (term / scale)^2 (crowding as it is).
+    double cost() const;
+};
+
+// One key segment's natural scores as result.json reports them: the chosen member's and the
+// runner-up's (the best-scoring member other than the chosen one).
+struct NaturalReport {
+    int key = 0;
+    double weight = 0;
+    NaturalTerms chosen, runner_up;
+    bool has_runner_up = false;
+    Solution runner_up_pose;
+    // The scene's [truth], on the lattice (nearest x, y and angle step; B not raised), when it has one.
+    bool has_truth = false;
+    NaturalTerms truth;
+    // The scores of members 0, stride, 2 stride, ... (in the group's order), for the page.
+    std::uint64_t stride = 1;
+    std::vector<float> sampled;
+};
+
+}  // namespace amhv
