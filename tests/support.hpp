@@ -15,6 +15,19 @@
 
 namespace amhv::test {
 
+// Whether this binary is built with AddressSanitizer (tools/sanitize.sh).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kAddressSanitizer = true;
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+
 // One Vulkan context for the whole test binary, validation layers on.
 gpu::Context& context();
 // NAME.bvh of each (NAME, object) in `out` against transforms.json: the edited take (docs/scenes.md).

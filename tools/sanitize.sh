@@ -19,7 +19,7 @@ mode=all
 case "${1:-}" in --build) mode=build; shift ;; --run) mode=run; shift ;; --fuzz) mode=fuzz; shift ;; esac
 build="${1:-$source_dir/build-asan}"
 filter="${2:-*}"
-flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -fsanitize=fuzzer-no-link"
+flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -fsanitize=fuzzer-no-link -fsanitize-ignorelist=$source_dir/tools/sanitize.ignore"
 
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:halt_on_error=1:exitcode=23"
 export LSAN_OPTIONS="suppressions=$source_dir/tools/lsan.supp:print_suppressions=0"
