@@ -205,7 +205,7 @@ void fill_solutions(const KeySweep& s, ChainSolutions& out) {
 // --allow-empty becomes the one state of B's captured placement on the lattice (`captured`, its
 // angle index in `captured_k`).
 std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditOptions& options,
-                                     const std::vector<std::vector<double>>& natural, std::vector<bool>& captured, std::vector<int>& captured_k) {
+                                     std::vector<std::vector<double>>& natural, std::vector<bool>& captured, std::vector<int>& captured_k) {
     const double h = scene.sampling.voxel;
     const double psi_a = radians(scene.a.placement.yaw_deg), psi_b = radians(scene.b.placement.yaw_deg);
     const Eigen::Vector2d place_a(scene.a.placement.x, scene.a.placement.y), place_b(scene.b.placement.x, scene.b.placement.y);
@@ -238,6 +238,7 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
                 c.extra_unary.push_back(intent_cost(key.intent, sol) + scene.weights.mu * sol.z * sol.z + score);
             });
         }
+        if (scored) std::vector<double>().swap(natural[i]);  // in the unary terms now
         if (!c.solutions.empty()) continue;
         if (!options.allow_empty)
             throw Error(fmt::format("{}: key segment {} ({}) has no solution among {} poses (rejected by {}); "
@@ -529,23 +530,38 @@ PoseIndex truth_pose(const Scene& scene, const KeySweep& s) {
 // members' costs for the DP, and the chosen and runner-up members' terms for result.json.
 struct NaturalChoice {
     std::vector<std::unique_ptr<NaturalScorer>> scorers;
+    // Per key segment: every member's score until the chain takes them (make_chain frees them), the
+    // two best members (the runner-up is the best one the DP did not choose) and the page's sample.
     std::vector<std::vector<double>> costs;
+    std::vector<std::array<std::uint64_t, 2>> best;
+    std::vector<std::uint64_t> strides;
+    std::vector<std::vector<float>> sampled;
     double seconds = 0;
 
     NaturalChoice(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditResult& r, ObjectSource& a, ObjectSource& b,
-                  Voxeliser& voxeliser) {
+                  Voxeliser& voxeliser, std::uint64_t page_members) {
         if (!(scene.weights.natural > 0)) return;
         const auto t0 = std::chrono::steady_clock::now();
         for (std::size_t i = 0; i < sweeps.size(); ++i) {
             const KeySegment& key = scene.segments[i];
             scorers.push_back(std::make_unique<NaturalScorer>(key, sweeps[i], natural_frames(r, key.index, scene.a.fps), a, b, voxeliser,
                                                               scene.sampling.angles()));
-            costs.push_back(scorers.back()->costs(sweeps[i].group));
+            const std::vector<double>& c = costs.emplace_back(scorers.back()->costs(sweeps[i].group));
+            std::array<std::uint64_t, 2> two{c.size(), c.size()};  // c.size(): none
+            for (std::uint64_t m = 0; m < c.size(); ++m) {
+                if (two[0] == c.size() || c[m] < c[two[0]]) two = {m, two[0]};
+                else if (two[1] == c.size() || c[m] < c[two[1]]) two[1] = m;
+            }
+            best.push_back(two);
+            const std::uint64_t stride = std::max<std::uint64_t>(1, (c.size() + page_members - 1) / std::max<std::uint64_t>(1, page_members));
+            strides.push_back(stride);
+            sampled.emplace_back();
+            for (std::uint64_t m = 0; m < c.size(); m += stride) sampled.back().push_back(float(c[m]));
         }
         seconds = seconds_since(t0);
     }
 
-    void report(const Scene& scene, const std::vector<KeySweep>& sweeps, std::uint64_t sampled, EditResult& r) const {
+    void report(const Scene& scene, const std::vector<KeySweep>& sweeps, EditResult& r) const {
         r.natural_seconds = seconds;
         r.natural.clear();
         for (std::size_t i = 0; i < scorers.size(); ++i) {
@@ -554,12 +570,10 @@ struct NaturalChoice {
             n.weight = natural_weight(scene, scene.segments[i]);
             const KeyEdit& k = r.keys[i];
             if (!k.captured) n.chosen = scorers[i]->terms(sweeps[i].group.at(std::uint64_t(k.solution)));
-            std::uint64_t best = 0;
-            double best_cost = std::numeric_limits<double>::infinity();
-            for (std::uint64_t m = 0; m < costs[i].size(); ++m)
-                if (std::int64_t(m) != std::int64_t(k.solution) && costs[i][m] < best_cost) best = m, best_cost = costs[i][m];
-            if (std::isfinite(best_cost)) {
-                const PoseIndex p = sweeps[i].group.at(best);
+            const std::uint64_t size = sweeps[i].group.size();
+            const std::uint64_t runner = best[i][0] != std::uint64_t(k.solution) || k.captured ? best[i][0] : best[i][1];
+            if (runner < size) {
+                const PoseIndex p = sweeps[i].group.at(runner);
                 n.has_runner_up = true;
                 n.runner_up = scorers[i]->terms(p);
                 n.runner_up_pose = sweeps[i].describe(p);
@@ -568,8 +582,8 @@ struct NaturalChoice {
                 n.has_truth = true;
                 n.truth = scorers[i]->terms(truth_pose(scene, sweeps[i]));
             }
-            n.stride = std::max<std::uint64_t>(1, (costs[i].size() + sampled - 1) / std::max<std::uint64_t>(1, sampled));
-            for (std::uint64_t m = 0; m < costs[i].size(); m += n.stride) n.sampled.push_back(float(costs[i][m]));
+            n.stride = strides[i];
+            n.sampled = sampled[i];
             r.natural.push_back(std::move(n));
         }
     }
@@ -589,7 +603,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     frame_roots_and_facings(scene, sources, voxeliser, r);
     r.roots_seconds = seconds_since(t0);
 
-    const NaturalChoice natural(scene, sweeps, r, a, b, voxeliser);
+    NaturalChoice natural(scene, sweeps, r, a, b, voxeliser, options.natural_sampled);
     // One solution per key segment (docs/method.md section 7); again without the key poses around a
     // transition that cannot be freed (section 8a), up to kMaxKeyChoices choices.
     t0 = std::chrono::steady_clock::now();
@@ -613,7 +627,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
         r.choice = std::move(*choice);
         const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
         if (!stuck) {
-            natural.report(scene, sweeps, options.natural_sampled, r);
+            natural.report(scene, sweeps, r);
             return r;
         }
         if (first_stuck.empty()) first_stuck = stuck->message;

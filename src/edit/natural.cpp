@@ -122,9 +122,10 @@ NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps) 
         out.a.push_back(edit.frames[0][std::size_t(m)].source);
         out.b.push_back(edit.frames[1][std::size_t(m)].source);
     }
+    // Every other frame within a second (at 25-30 fps, 12-15 samples a second: a walk is smooth).
     const int reach = std::max(1, int(std::lround(fps)));
     for (int m = std::max(0, seg->first - reach); m < std::min(edit.timeline.length(), seg->first + seg->length + reach); ++m) {
-        if (m >= seg->first && m < seg->first + seg->length) continue;
+        if ((m >= seg->first && m < seg->first + seg->length) || (m - seg->first) % 2 != 0) continue;
         out.around_a.push_back(edit.frames[0][std::size_t(m)].root);
         out.around_b.push_back(edit.frames[1][std::size_t(m)].root);
     }
@@ -282,8 +283,9 @@ double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
 double NaturalScorer::crowding(const Angle& g, const Vec3& offset) const {
     double sum = 0;
     for (std::size_t m = 0; m < g.around.size(); ++m) {
-        const Eigen::Vector2d d(g.around[m].x() + offset.x() - frames_.around_a[m].x(), g.around[m].y() + offset.y() - frames_.around_a[m].y());
-        sum += square(std::max(0.0, kIntimateDistance - d.norm()) / kNaturalCrowdingScale);
+        const double dx = g.around[m].x() + offset.x() - frames_.around_a[m].x(), dy = g.around[m].y() + offset.y() - frames_.around_a[m].y();
+        const double d2 = dx * dx + dy * dy;
+        if (d2 < kIntimateDistance * kIntimateDistance) sum += square((kIntimateDistance - std::sqrt(d2)) / kNaturalCrowdingScale);
     }
     return sum / double(g.around.size());
 }

@@ -14,12 +14,12 @@ inline constexpr double kNaturalSlidingScale = 0.02;   // metres
 inline constexpr double kIntimateDistance = 0.45;      // metres (Hall's intimate zone)
 inline constexpr double kNaturalCrowdingScale = 0.10;  // metres
 // At most this many of the key's normalised frames are scored (evenly spaced, ends included).
-inline constexpr int kNaturalFrames = 16;
+inline constexpr int kNaturalFrames = 8;
 // At most this many points of B's interest part per frame; fewer for large groups, so that a
 // group's depth lookups stay under kNaturalLookups (at least kNaturalMinPoints points per frame).
 inline constexpr int kNaturalPoints = 64;
 inline constexpr int kNaturalMinPoints = 4;
-inline constexpr double kNaturalLookups = 4e8;
+inline constexpr double kNaturalLookups = 1e8;
 
 struct NaturalTerms {
     static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
