@@ -229,7 +229,11 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // The natural choice (section 7b) adds natural_weight() times each member's score.
         const bool scored = i < natural.size() && !natural[i].empty();
         const double natural_scale = natural_weight(scene, key);
-        if (key.intent.prefers() || s.group.any_raised() || scored) {
+        if (scored && !key.intent.prefers() && !s.group.any_raised()) {
+            // Only the natural score: the chain takes the scores themselves, weighted in place.
+            c.extra_unary = std::move(natural[i]);
+            for (double& u : c.extra_unary) u *= natural_scale;
+        } else if (key.intent.prefers() || s.group.any_raised() || scored) {
             c.extra_unary.reserve(s.group.size());
             std::size_t n = 0;
             s.group.for_each([&](const PoseIndex& p) {
