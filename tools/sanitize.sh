@@ -39,16 +39,26 @@ if [ "$mode" = fuzz ]; then
   target="$2" seconds="$3"
   work="$(mktemp -d)"
   trap 'rm -rf "$work"' EXIT
-  # New inputs go to the first folder (a scratch one); the committed seeds are only read.
+  # New inputs go to the first folder (a scratch one); the committed seeds are only read. A finding
+  # (crash, leak, timeout, out-of-memory) is kept in BUILD_DIR/fuzz-findings/TARGET/.
+  set +e
   "$build/tests/fuzz/fuzz_$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-    -artifact_prefix="$work/" "$work" "$source_dir/tests/fuzz/corpus/$target" 2>&1 | tail -15
-  status=${PIPESTATUS[0]}
+    -artifact_prefix="$work/" "$work" "$source_dir/tests/fuzz/corpus/$target" > "$work/log" 2>&1
+  status=$?
+  set -e
   if [ "$status" -ne 0 ]; then
+    grep -E "ERROR|SUMMARY|ALARM|#[0-9]+ .* in amhv" "$work/log" | head -30
+    tail -8 "$work/log"
+    mkdir -p "$build/fuzz-findings/$target"
     for artifact in "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-*; do
-      [ -f "$artifact" ] && { echo "sanitizers: finding $artifact:"; head -c 400 "$artifact" | od -c | head -20; }
+      [ -f "$artifact" ] || continue
+      cp "$artifact" "$build/fuzz-findings/$target/"
+      echo "sanitizers: finding kept as $build/fuzz-findings/$target/$(basename "$artifact"):"
+      head -c 400 "$artifact" | od -c | head -20
     done
     exit "$status"
   fi
+  tail -8 "$work/log"
   echo "sanitizers: fuzz_$target ran ${seconds} s with no finding"
   exit 0
 fi
