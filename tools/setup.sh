@@ -69,7 +69,7 @@ install_three() {
 install_npm_tools() {
   local prefix tool name
   prefix="$(cd "$(dirname "$0")" && pwd)/npm"
-  for tool in "${npm_tools[@]+"${npm_tools[@]}"}"; do
+  for tool in "${npm_tools[@]}"; do
     name="${tool%@*}"
     if [ -f "$prefix/node_modules/$name/package.json" ] && grep -q "\"version\": \"${tool##*@}\"" "$prefix/node_modules/$name/package.json"; then
       echo "setup: $tool already in tools/npm"

@@ -524,7 +524,7 @@ std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vec
 PoseIndex truth_pose(const Scene& scene, const KeySweep& s) {
     const Placement& t = *scene.truth;
     const double h = scene.sampling.voxel, step = scene.sampling.angle_step_deg;
-    const Eigen::Vector2d offset = rotate(radians(t.yaw_deg), xy(s.root_b)) + Eigen::Vector2d(t.x, t.y) - xy(s.root_a);
+    const Eigen::Vector2d offset = truth_offset(t, s.root_a, s.root_b);
     const int angles = scene.sampling.angles();
     const int k = ((int(std::lround(t.yaw_deg / step)) % angles) + angles) % angles;
     return {int(std::lround(offset.x() / h)), int(std::lround(offset.y() / h)), k, 0};
@@ -533,13 +533,14 @@ PoseIndex truth_pose(const Scene& scene, const KeySweep& s) {
 // Every key segment's natural scores (docs/method.md section 7b), when weights.natural > 0: the
 // members' costs for the DP, and the chosen and runner-up members' terms for result.json.
 struct NaturalChoice {
-    std::vector<std::unique_ptr<NaturalScorer>> scorers;
-    // Per key segment: every member's score until the chain takes them (make_chain frees them), the
-    // two best members (the runner-up is the best one the DP did not choose) and the page's sample.
+    struct Key {
+        std::unique_ptr<NaturalScorer> scorer;
+        std::array<std::uint64_t, 2> best;  // the two best members (the group's size: none)
+        NaturalReport report;               // key, weight and the page's sample; the rest after the DP
+    };
+    std::vector<Key> keys;
+    // Every member's score per key segment, until the chain takes them (make_chain frees them).
     std::vector<std::vector<double>> costs;
-    std::vector<std::array<std::uint64_t, 2>> best;
-    std::vector<std::uint64_t> strides;
-    std::vector<std::vector<float>> sampled;
     double seconds = 0;
 
     NaturalChoice(const Scene& scene, const std::vector<KeySweep>& sweeps, const EditResult& r, ObjectSource& a, ObjectSource& b,
@@ -548,19 +549,19 @@ struct NaturalChoice {
         const auto t0 = std::chrono::steady_clock::now();
         for (std::size_t i = 0; i < sweeps.size(); ++i) {
             const KeySegment& key = scene.segments[i];
-            scorers.push_back(std::make_unique<NaturalScorer>(key, sweeps[i], natural_frames(r, key.index, scene.a.fps), a, b, voxeliser,
-                                                              scene.sampling.angles()));
-            const std::vector<double>& c = costs.emplace_back(scorers.back()->costs(sweeps[i].group));
-            std::array<std::uint64_t, 2> two{c.size(), c.size()};  // c.size(): none
+            Key& k = keys.emplace_back();
+            k.scorer = std::make_unique<NaturalScorer>(key, sweeps[i], natural_frames(r, key.index, scene.a.fps), a, b, voxeliser,
+                                                       scene.sampling.angles());
+            const std::vector<double>& c = costs.emplace_back(k.scorer->costs(sweeps[i].group));
+            k.best = {c.size(), c.size()};
             for (std::uint64_t m = 0; m < c.size(); ++m) {
-                if (two[0] == c.size() || c[m] < c[two[0]]) two = {m, two[0]};
-                else if (two[1] == c.size() || c[m] < c[two[1]]) two[1] = m;
+                if (k.best[0] == c.size() || c[m] < c[k.best[0]]) k.best = {m, k.best[0]};
+                else if (k.best[1] == c.size() || c[m] < c[k.best[1]]) k.best[1] = m;
             }
-            best.push_back(two);
-            const std::uint64_t stride = std::max<std::uint64_t>(1, (c.size() + page_members - 1) / std::max<std::uint64_t>(1, page_members));
-            strides.push_back(stride);
-            sampled.emplace_back();
-            for (std::uint64_t m = 0; m < c.size(); m += stride) sampled.back().push_back(float(c[m]));
+            k.report.key = key.index;
+            k.report.weight = natural_weight(scene, key);
+            k.report.stride = sample_stride(c.size(), page_members);
+            for (std::uint64_t m = 0; m < c.size(); m += k.report.stride) k.report.sampled.push_back(float(c[m]));
         }
         seconds = seconds_since(t0);
     }
@@ -568,26 +569,22 @@ struct NaturalChoice {
     void report(const Scene& scene, const std::vector<KeySweep>& sweeps, EditResult& r) const {
         r.natural_seconds = seconds;
         r.natural.clear();
-        for (std::size_t i = 0; i < scorers.size(); ++i) {
-            NaturalReport n;
-            n.key = scene.segments[i].index;
-            n.weight = natural_weight(scene, scene.segments[i]);
+        for (std::size_t i = 0; i < keys.size(); ++i) {
+            const Key& key = keys[i];
+            NaturalReport n = key.report;
             const KeyEdit& k = r.keys[i];
-            if (!k.captured) n.chosen = scorers[i]->terms(sweeps[i].group.at(std::uint64_t(k.solution)));
-            const std::uint64_t size = sweeps[i].group.size();
-            const std::uint64_t runner = best[i][0] != std::uint64_t(k.solution) || k.captured ? best[i][0] : best[i][1];
-            if (runner < size) {
+            if (!k.captured) n.chosen = key.scorer->terms(sweeps[i].group.at(std::uint64_t(k.solution)));
+            const std::uint64_t runner = key.best[0] != std::uint64_t(k.solution) || k.captured ? key.best[0] : key.best[1];
+            if (runner < sweeps[i].group.size()) {
                 const PoseIndex p = sweeps[i].group.at(runner);
                 n.has_runner_up = true;
-                n.runner_up = scorers[i]->terms(p);
+                n.runner_up = key.scorer->terms(p);
                 n.runner_up_pose = sweeps[i].describe(p);
             }
             if (scene.truth) {
                 n.has_truth = true;
-                n.truth = scorers[i]->terms(truth_pose(scene, sweeps[i]));
+                n.truth = key.scorer->terms(truth_pose(scene, sweeps[i]));
             }
-            n.stride = strides[i];
-            n.sampled = sampled[i];
             r.natural.push_back(std::move(n));
         }
     }

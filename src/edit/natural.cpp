@@ -50,13 +50,16 @@ void transform_line(std::vector<double>& f, std::vector<double>& d, std::vector<
     v[0] = 0;
     z[0] = -std::numeric_limits<double>::infinity();
     z[1] = std::numeric_limits<double>::infinity();
+    // Where the parabola rooted at q meets the one rooted at v[k].
+    auto meet = [&](int q) {
+        const int p = v[std::size_t(k)];
+        return ((f[std::size_t(q)] + double(q) * q) - (f[std::size_t(p)] + double(p) * p)) / (2.0 * q - 2.0 * p);
+    };
     for (int q = 1; q < n; ++q) {
-        double s = ((f[std::size_t(q)] + q * q) - (f[std::size_t(v[std::size_t(k)])] + double(v[std::size_t(k)]) * v[std::size_t(k)])) /
-                   (2.0 * q - 2.0 * v[std::size_t(k)]);
+        double s = meet(q);
         while (s <= z[std::size_t(k)]) {
             --k;
-            s = ((f[std::size_t(q)] + q * q) - (f[std::size_t(v[std::size_t(k)])] + double(v[std::size_t(k)]) * v[std::size_t(k)])) /
-                (2.0 * q - 2.0 * v[std::size_t(k)]);
+            s = meet(q);
         }
         ++k;
         v[std::size_t(k)] = q;
@@ -221,9 +224,8 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
     angles_.resize(std::size_t(angles));
     parallel_for(std::size_t(angles), [&](std::size_t k) {
         Angle& g = angles_[k];
-        const double theta = angles::radians(sweep_.describe.theta_deg(int(k)));
-        g.c = std::cos(theta), g.s = std::sin(theta);
-        auto turn = [&](const Vec3& v) { return Vec3(g.c * v.x() - g.s * v.y(), g.s * v.x() + g.c * v.y(), v.z()); };
+        const double theta = angles::radians(sweep_.describe.theta_deg(int(k))), c = std::cos(theta), s = std::sin(theta);
+        auto turn = [c, s](const Vec3& v) { return Vec3(c * v.x() - s * v.y(), s * v.x() + c * v.y(), v.z()); };
         const Vec3 planar_b(root_b_.x(), root_b_.y(), 0);
         for (std::size_t t = 0; t < eyes_b_.size() && tracks_; ++t) g.eyes.push_back(turn(eyes_b_[t] - planar_b)), g.gazes.push_back(turn(gazes_b_[t]));
         for (const Eigen::Vector2d& r : frames_.around_b) g.around.push_back(turn(Vec3(r.x() - root_b_.x(), r.y() - root_b_.y(), 0)));
@@ -236,7 +238,7 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
                 for (const Vec3& p : points[t]) g.cells[t].push_back(fields_[t].cell(turn(p - planar_b) + at_a));
         }
         if (centroids)
-            for (const auto& c : centroid_b) g.centroids.push_back(turn(*c - planar_b));
+            for (const auto& centroid : centroid_b) g.centroids.push_back(turn(*centroid - planar_b));
         if (!sliding) return;
         std::vector<Vec3> rel(n);
         Vec3 mean = Vec3::Zero();

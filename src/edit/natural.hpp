@@ -59,7 +59,6 @@ private:
         double at(int x, int y, int z) const;           // 0 outside the grid
     };
     struct Angle {  // B's samples turned by one angle, relative to C^B
-        double c = 1, s = 0;
         std::vector<Vec3> eyes, gazes, around;
         std::vector<Vec3> centroids;            // B's interest part's centroid per frame (empty: none)
         std::vector<std::vector<std::array<int, 3>>> cells;  // B's points' voxels in A's field at C^A, per frame

@@ -72,7 +72,7 @@ Json group_rows(const fs::path& dir, const fs::path& edit_dir, const Json& segme
     const int index = segment.at("index").get<int>();
     const GroupRead group = read_group(dir, index);
     const std::uint64_t members = group.group.size();
-    const std::uint64_t stride = std::max<std::uint64_t>(1, (members + kPagePlottedMembers - 1) / kPagePlottedMembers);
+    const std::uint64_t stride = sample_stride(members, kPagePlottedMembers);
     Json rows = Json::array();
     std::uint64_t rank = 0;
     group.group.for_each([&](const PoseIndex& p) {

@@ -25,9 +25,7 @@ nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 // whether the group holds a solution within one voxel on x and y and one angle step of it.
 Json truth_json(const Scene& scene, const SweepProblem& problem, const SolutionGroup& group) {
     const Placement& t = *scene.truth;
-    const double yaw = angles::radians(t.yaw_deg);
-    const Eigen::Vector2d ca(problem.a.root.x(), problem.a.root.y()), cb(problem.b.root.x(), problem.b.root.y());
-    const Eigen::Vector2d offset = Eigen::Rotation2Dd(yaw) * cb + Eigen::Vector2d(t.x, t.y) - ca;
+    const Eigen::Vector2d offset = truth_offset(t, problem.a.root, problem.b.root);
     const double h = problem.voxel, step = problem.angle_step_deg;
     const PoseDescriber describe = describer(problem);
     double nearest = std::numeric_limits<double>::infinity();

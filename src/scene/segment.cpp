@@ -555,6 +555,11 @@ double intent_cost(const Intent& intent, const Solution& s) {
     return intent.weight * sum;
 }
 
+Eigen::Vector2d truth_offset(const Placement& truth, const Vec3& root_a, const Vec3& root_b) {
+    return Eigen::Rotation2Dd(angles::radians(truth.yaw_deg)) * Eigen::Vector2d(root_b.x(), root_b.y()) + Eigen::Vector2d(truth.x, truth.y) -
+           Eigen::Vector2d(root_a.x(), root_a.y());
+}
+
 bool within_limits(const Intent& intent, const Solution& s) {
     auto inside = [](const std::optional<std::array<double, 2>>& r, double v) { return !r || ((*r)[0] <= v && v <= (*r)[1]); };
     return inside(intent.distance_limits_m, s.distance) && inside(intent.theta_a_limits_deg, s.theta_a_deg) &&

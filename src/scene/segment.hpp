@@ -95,6 +95,9 @@ Eigen::Vector2d segment_facing(const ObjectSource& object, const std::vector<int
 // ((L - L0) / 5 cm)^2, ((thetaA - thetaA0) / 5 deg)^2 and ((thetaB - thetaB0) / 5 deg)^2 over the
 // descriptors it names (angles the short way round). 0 without prefer.
 double intent_cost(const Intent& intent, const Solution& solution);
+// B's root offset from A's root, in A's capture axes, when B's capture frame is placed by
+// `truth` in A's (the scene's [truth]); roots C^A, C^B in their capture frames.
+Eigen::Vector2d truth_offset(const Placement& truth, const Vec3& root_a, const Vec3& root_b);
 // Whether a solution's descriptors lie within the intent's limits (always, without limits).
 bool within_limits(const Intent& intent, const Solution& solution);
 // "distance_m [0.4, 1.2], thetaA_deg [-45, 45]" for result.json; empty without limits.

@@ -5,6 +5,7 @@
 // members lie in 62,656 runs, so a run costs 20 bytes where a listed pose with its descriptors cost
 // 72. The members keep the sweep's order (z, theta, y, x); member n is the n-th pose in that order
 // (the DP's state index). The descriptors (L, thetaA, thetaB) are computed from a pose when needed.
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -69,6 +70,12 @@ private:
     std::vector<PoseRun> runs_;
     std::vector<std::uint64_t> starts_;  // member index of each run's first pose
 };
+
+// How a group of `members` is sampled down to at most `at_most` (the page's plot, the natural
+// scores kept for it): every member, else every n-th by rank; returns n (at least 1).
+inline std::uint64_t sample_stride(std::uint64_t members, std::uint64_t at_most) {
+    return std::max<std::uint64_t>(1, (members + at_most - 1) / std::max<std::uint64_t>(1, at_most));
+}
 
 // The sweep's solutions, less those `keep` refuses (the editor's limits; null: none): found one
 // (l, k) slice at a time from the outcomes, on every core, never as a list of poses. `keep` is
