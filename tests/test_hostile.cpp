@@ -2,7 +2,9 @@
 // labels, a sweep folder for --from-sweep, command-line numbers): each generated here, each must
 // end in its own exact refusal: a non-zero exit, one "amhv: error:" line naming the file (and line)
 // and what is wrong, no crash, no hang, no output folder. docs/scenes.md, "What amhv refuses".
+#include <bit>
 #include <cstdio>
+#include <limits>
 #include <cstdlib>
 #include <map>
 #include <fstream>
@@ -196,6 +198,26 @@ std::vector<Hostile> bvh_cases() {
     };
 }
 
+// A binary little-endian PLY: float x y z per vertex, then faces as a list of `count_type` counts
+// and int indices; `faces` rows are written as given (count first), `tail` appended raw.
+std::string binary_ply(const std::vector<float>& xyz, const std::vector<std::vector<std::int64_t>>& faces, const std::string& count_type,
+                       const std::string& extra_header = "") {
+    std::string out = fmt::format("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n"
+                                  "property float z\nelement face {}\nproperty list {} int vertex_indices\n{}end_header\n",
+                                  xyz.size() / 3, faces.size(), count_type, extra_header);
+    auto put = [&](std::uint64_t v, int bytes) {
+        for (int k = 0; k < bytes; ++k) out.push_back(char((v >> (8 * k)) & 0xff));
+    };
+    for (float f : xyz) put(std::bit_cast<std::uint32_t>(f), 4);
+    for (const auto& row : faces) {
+        put(std::uint64_t(row[0]), count_type == "uchar" ? 1 : 4);
+        for (std::size_t k = 1; k < row.size(); ++k) put(std::uint64_t(row[k]), 4);
+    }
+    return out;
+}
+
+const std::vector<float> kTetraXyz{0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+
 std::vector<Hostile> mesh_cases() {
     const std::string obj = mhv("m/f_%04d.obj");
     return {
@@ -234,6 +256,25 @@ std::vector<Hostile> mesh_cases() {
         {"OffNaN", {{"m/f_0000.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"}}, mhv("m/f_%04d.off"), "f_0000.off:4: vertex 1 does not have three finite coordinates"},
         {"OffNoCounts", {{"m/f_0000.off", "OFF\n\n"}}, mhv("m/f_%04d.off"), "malformed OFF"},
         {"OffNotOff", {{"m/f_0000.off", "PLY\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
+        {"OffBinary", {{"m/f_0000.off", std::string("OFF BINARY\n\x7f\xff\xff\xff\x7f\xff\xff\xff\0\0\0\0", 23)}}, mhv("m/f_%04d.off"),
+         "f_0000.off:1: binary OFF is not read"},
+        {"OffFourD", {{"m/f_0000.off", "4OFF\n3 1 0\n0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2\n"}}, mhv("m/f_%04d.off"),
+         "f_0000.off:1: 4OFF declares vertices of more than three dimensions"},
+        {"OffColourHuge", {{"m/f_0000.off", "COFF\n100000000 1 0\n0 0 0 1 1 1 1\n"}}, mhv("m/f_%04d.off"),
+         "malformed OFF: 100000000 vertices and 1 faces do not fit in a file of"},
+        {"OffMagicGarbage", {{"m/f_0000.off", "xyzOFF\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
+        {"PlyBinaryListHuge", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{0xffffffff, 0, 1, 2}, {3, 0, 1, 3}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uint")}},
+         mhv("m/f_%04d.ply"), "malformed PLY: row 0 of element face has a list of 4294967295 values, past the end of the file"},
+        {"PlyBinaryIndexPastEnd", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{3, 0, 2, 1}, {3, 0, 1, 9}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uchar")}},
+         mhv("m/f_%04d.ply"), "f_0000.ply: face 1 names vertex 9, not one of the 4 vertices"},
+        {"PlyBinaryIndexNegative", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{3, 0, 2, 1}, {3, 0, 1, -1}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uchar")}},
+         mhv("m/f_%04d.ply"), "f_0000.ply: face 1 names vertex -1, not one of the 4 vertices"},
+        {"PlyBinaryNaN", {{"m/f_0000.ply", binary_ply({0, 0, 0, 1, 0, 0, 0, std::numeric_limits<float>::quiet_NaN(), 0, 0, 0, 1},
+                                                      {{3, 0, 2, 1}, {3, 0, 1, 3}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uchar")}},
+         mhv("m/f_%04d.ply"), "f_0000.ply: vertex 2 has a non-finite coordinate y"},
+        {"PlyElementWithoutProperties", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{3, 0, 2, 1}, {3, 0, 1, 3}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uchar",
+                                                                     "element junk 4000000000\n")}},
+         mhv("m/f_%04d.ply"), "malformed PLY: element junk has 4000000000 rows but no properties"},
         {"StlCountMismatch", {{"m/f_0000.stl", std::string(80, 'x') + std::string("\x10\0\0\0", 4) + std::string(50, '\0')}}, mhv("m/f_%04d.stl"),
          "malformed binary STL: 16 triangles need 884 bytes but the file has 134"},
         {"StlShort", {{"m/f_0000.stl", "abc"}}, mhv("m/f_%04d.stl"), "malformed binary STL: shorter than its 84-byte header"},

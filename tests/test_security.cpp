@@ -3,6 +3,7 @@
 // the user gave is read or copied; no output folder, lock or staging name can make amhv delete or
 // overwrite what it did not create; crafted groups, takes and meshes are refused before they cost
 // anything; a run that is interrupted leaves nothing behind.
+#include <bit>
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -370,6 +371,43 @@ TEST(Security, NonManifoldFacesAreLeftOutAsTheWarningSays) {
     EXPECT_TRUE(extra.is_closed());
     auto run = test::run_amhv(fmt::format("mhv --meshes '{0}/seq' --voxel 0.02 --backend cpu --no-exr --out '{0}/o'", tmp.path().string()));
     EXPECT_NE(run.output.find("1 face shared an edge"), std::string::npos) << run.output;
+}
+
+// The forms of OFF and PLY whose headers are now checked before OpenMesh reads them still read as
+// the plain form does: COFF with colours, PLY in both byte orders with an extra vertex property.
+TEST(Security, CheckedMeshFormsStillRead) {
+    test::TempDir tmp;
+    auto ply = [](bool big, const std::string& count_type) {
+        std::string out = fmt::format("ply\nformat {} 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                                      "property uchar red\nelement face 4\nproperty list {} int vertex_indices\nend_header\n",
+                                      big ? "binary_big_endian" : "binary_little_endian", count_type);
+        auto put = [&](std::uint32_t v, int bytes) {
+            for (int k = 0; k < bytes; ++k) out.push_back(char((v >> (8 * (big ? bytes - 1 - k : k))) & 0xff));
+        };
+        const float xyz[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+        for (const auto& v : xyz) {
+            for (float f : v) put(std::bit_cast<std::uint32_t>(f), 4);
+            put(200, 1);
+        }
+        for (const auto& f : {std::array<std::uint32_t, 3>{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}) {
+            put(3, count_type == "uchar" ? 1 : 4);
+            for (auto i : f) put(i, 4);
+        }
+        return out;
+    };
+    write_text(tmp.path() / "plain.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n");
+    write_text(tmp.path() / "coloured.off",
+               "COFF\n4 4 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n0 0 1 9 9 9 255\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n");
+    write_text(tmp.path() / "little.ply", ply(false, "uchar"));
+    write_text(tmp.path() / "big.ply", ply(true, "uchar"));
+    write_text(tmp.path() / "wide.ply", ply(false, "int"));
+    const TriangleMesh plain = read_mesh(tmp.path() / "plain.off", UnitsAndAxes{});
+    ASSERT_EQ(plain.triangles.size(), 4u);
+    for (const char* name : {"coloured.off", "little.ply", "big.ply", "wide.ply"}) {
+        const TriangleMesh other = read_mesh(tmp.path() / name, UnitsAndAxes{});
+        EXPECT_EQ(other.vertices, plain.vertices) << name;
+        EXPECT_EQ(other.triangles, plain.triangles) << name;
+    }
 }
 
 TEST(Security, SmallMistakesInInputsAreNamed) {
