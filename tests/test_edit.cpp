@@ -1,6 +1,7 @@
 // `amhv edit` end to end (docs/method.md sections 7, 8 and 10) on two small separately captured
 // performers: the timeline, the chosen pose reproduced by the per-frame transforms, the meshes,
 // reuse of a sweep, both backends, byte-identical reruns, and the empty-group rules.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -355,6 +356,60 @@ TEST(Edit, ZRangeLowersTheHigherCapture) {
     }
     // Frame 20's PLY: B's first vertex is its source vertex lowered by z.
     EXPECT_NEAR(first_vertex_of_b(out / "frames/0020.ply").z(), first_obj_vertex(fixture.dir.path() / "b/0025.obj").z() + z, 1e-5);
+}
+
+// `near` (docs/method.md section 5): the hands pass within 9 cm at some frame and never overlap.
+// It is 0&0 (b) on A's hand grown by within_m with the whole bodies as fidelity: the same group,
+// byte for byte, as that spelled out; none of its members is a 0&0 (b) member (there the hands
+// overlap); both backends agree; the chosen pose's hand spheres (6 cm) have a gap in (0, 9 cm]
+// up to the voxel (3 cm).
+TEST(Edit, NearPassesWithinTheDistanceAndNeverTouches) {
+    const std::string fidelity = "fidelity = { A = { parts = [\"body\"] }, B = { parts = [\"body\"] } }";
+    auto group = [](EditFixture& f, const std::string& name, const std::string& backend) {
+        const fs::path out = f.dir.path() / name;
+        auto run = test::run_amhv("edit " + f.quoted() + " --backend " + backend + " --no-frames --no-timings --csv --out '" + out.string() + "'");
+        EXPECT_EQ(run.exit_code, 0) << name << ": " << run.output;
+        return out;
+    };
+    EditFixture near("near", "within_m = 0.09");
+    test::replace_in_file(near.scene, fidelity, "");
+    const fs::path out = group(near, "near", "vulkan"), cpu = group(near, "cpu", "cpu");
+    const std::string members = read_text(out / "segment_1/solutions.csv");
+    EXPECT_EQ(read_text(cpu / "segment_1/solutions.csv"), members);
+    EXPECT_GT(std::count(members.begin(), members.end(), '\n'), 2);
+    const auto seg = read_json(out / "result.json").at("segments").at(0);
+    EXPECT_EQ(seg.at("type"), "near");
+
+    EditFixture spelled("0&0b", "contact_tolerance = 0.09");
+    test::replace_in_file(spelled.scene, fidelity, "fidelity = { A = \"whole\", B = \"whole\" }");
+    EXPECT_EQ(read_text(group(spelled, "spelled", "vulkan") / "segment_1/solutions.csv"), members);
+
+    EditFixture touch("0&0b");
+    std::set<std::string> touching;
+    std::istringstream lines(read_text(group(touch, "touch", "vulkan") / "segment_1/solutions.csv"));
+    for (std::string line; std::getline(lines, line);) touching.insert(line);
+    std::istringstream near_lines(members);
+    std::string line;
+    std::getline(near_lines, line);  // the header
+    for (int n = 0; std::getline(near_lines, line) && n < 100000; ++n) EXPECT_EQ(touching.count(line), 0u) << line;
+
+    // The chosen pose, frame by frame over the key: the hand spheres' gap never below zero (up to
+    // the voxel), and within 9 cm (up to the voxel) at some frame.
+    const auto transforms = read_json(out / "transforms.json");
+    const auto key = std::find_if(transforms.at("segments").begin(), transforms.at("segments").end(),
+                                  [](const nlohmann::json& s) { return s.at("name") == "key 1"; });
+    ASSERT_NE(key, transforms.at("segments").end());
+    double nearest = 1e9;
+    for (int m = key->at("output_frames")[0].get<int>(); m <= key->at("output_frames")[1].get<int>(); ++m) {
+        const auto& frame = transforms.at("output").at(std::size_t(m));
+        const int fa = frame.at("A").at("source").get<int>(), fb = frame.at("B").at("source").get<int>();
+        const Eigen::Vector2d a = apply(frame.at("A"), {walk(fa, 15, 24) + 0.3, 0.0});
+        const Eigen::Vector2d b = apply(frame.at("B"), {0.0, walk(fb, 20, 29) + 0.3});
+        const double gap = (a - b).norm() - 0.12;
+        EXPECT_GT(gap, -0.03) << m;
+        nearest = std::min(nearest, gap);
+    }
+    EXPECT_LE(nearest, 0.09 + 0.06);
 }
 
 TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {

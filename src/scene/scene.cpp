@@ -320,7 +320,19 @@ namespace {
 // prefer = { distance_m, thetaA_deg, thetaB_deg, weight } and limits = { distance_m = [lo, hi],
 // thetaA_deg = [lo, hi], thetaB_deg = [lo, hi] }, every key optional.
 void read_real_capture_keys(TableReader& t, KeySegment& k) {
-    k.contact_tolerance = t.number("contact_tolerance", 0, 0.5).value_or(0);
+    if (k.type.near) {
+        // How near: A's part grows by it, as contact_tolerance grows it (docs/method.md section 5).
+        if (t.has("contact_tolerance"))
+            t.error("contact_tolerance", t.get("contact_tolerance"), "does not apply to type near: within_m says how near the parts come");
+        const auto within = t.number("within_m", 0, 0.5);
+        if (!within || !(*within > 0))
+            t.error("within_m", within ? t.get("within_m") : t.get("type"),
+                    "type near needs within_m, the distance in metres (above 0, at most 0.5) within which the parts pass");
+        k.contact_tolerance = *within;
+    } else {
+        if (t.has("within_m")) t.error("within_m", t.get("within_m"), "applies to type near only (this key segment is {})", k.type.name());
+        k.contact_tolerance = t.number("contact_tolerance", 0, 0.5).value_or(0);
+    }
     if (auto f = t.number("contact_frames", 0, 1, false)) {
         if (!(k.type.lateral_pair() && k.type.variant == 'a'))
             t.error("contact_frames", t.get("contact_frames"), "applies to type 0&0a only (this key segment is {})", k.type.name());
@@ -451,7 +463,10 @@ KeySegment read_segment(TableReader& t, const toml::node& node, const Scene& sce
     read_real_capture_keys(t, k);
     read_intent(t, k.intent);
     read_parts(t, "interest", scene, k.pair, k.interest_a, k.interest_b, PartSpec{PartSpec::Kind::Whole});
-    read_parts(t, "fidelity", scene, k.pair, k.fidelity_a, k.fidelity_b, PartSpec{PartSpec::Kind::WholeMinusInterest});
+    read_parts(t, "fidelity", scene, k.pair, k.fidelity_a, k.fidelity_b,
+               PartSpec{k.type.near ? PartSpec::Kind::Whole : PartSpec::Kind::WholeMinusInterest});
+    if (k.type.near && (k.fidelity_a.kind != PartSpec::Kind::Whole || k.fidelity_b.kind != PartSpec::Kind::Whole))
+        t.error("fidelity", t.get("fidelity"), "a near key keeps the whole bodies apart: its fidelity is \"whole\" on both sides (or not given)");
     int tau = normalise_pair(k.a[1] - k.a[0] + 1, k.b[1] - k.b[0] + 1).length;
     if (tau > 500) t.error("a", t.get("a"), "the pair normalises to {} frames; a key segment may have at most 500", tau);
     check_segment_order(t, scene, k);
@@ -700,7 +715,7 @@ std::string resolved_toml(const Scene& scene) {
             {"normalised_frames", pair.length},
             {"type", k.type.name()},
             {"tolerance", k.tolerance},
-            {"contact_tolerance", k.contact_tolerance},
+            {k.type.near ? "within_m" : "contact_tolerance", k.contact_tolerance},
             {"contact_frames", k.contact_frames},
             {"visibility", toml::table{{"enabled", k.visibility.enabled},
                                        {"half_angle_deg", k.visibility.half_angle_deg},

@@ -28,6 +28,7 @@ bool parse_label(char c, SurfaceLabel& label) {
 }  // namespace
 
 std::string InteractionType::name() const {
+    if (near) return "near";
     std::string text{symbol(a), '&', symbol(b)};
     if (variant) text += variant;
     return text;
@@ -40,6 +41,11 @@ InteractionType parse_interaction_type(const std::string& text, const std::strin
     // "0&0-a" and "0&0_a" spell the variant with a separator.
     if (compact.size() == 5 && (compact[3] == '-' || compact[3] == '_')) compact.erase(3, 1);
     InteractionType type;
+    if (compact == "near") {
+        type.variant = 'b';
+        type.near = true;
+        return type;
+    }
     bool ok = compact.size() >= 3 && compact[1] == '&' && parse_label(compact[0], type.a) && parse_label(compact[2], type.b);
     if (ok && type.lateral_pair()) {
         ok = compact.size() == 4 && std::string("abc").find(compact[3]) != std::string::npos;
@@ -48,7 +54,7 @@ InteractionType parse_interaction_type(const std::string& text, const std::strin
         ok = compact.size() == 3;
     }
     if (!ok)
-        fail(what, "unknown interaction type '{}'; the dictionary has +&-, -&+, +&+, -&-, +&0, 0&+, -&0, 0&-, 0&0a, 0&0b, 0&0c", text);
+        fail(what, "unknown interaction type '{}'; the dictionary has +&-, -&+, +&+, -&-, +&0, 0&+, -&0, 0&-, 0&0a, 0&0b, 0&0c, and near (beyond the paper)", text);
     return type;
 }
 

@@ -12,6 +12,10 @@ struct InteractionType {
     // Only for 0 & 0: 'a' touch at every frame, 'b' touch at some frame, 'c' never touch with B
     // leaving every contact voxel before A arrives. 0 for the other types.
     char variant = 0;
+    // `near` (beyond the paper): 0 & 0 (b) on A's part grown by the key's `within_m`, with the
+    // whole bodies as fidelity, so the parts come within that distance at some frame and never
+    // overlap. The sweep reads it as 0 & 0 (b); only its name and the scene's rules differ.
+    bool near = false;
 
     bool lateral_pair() const { return a == SurfaceLabel::Lateral && b == SurfaceLabel::Lateral; }
     std::string name() const;  // canonical spelling: "+&-", "0&0a", ...
