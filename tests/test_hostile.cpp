@@ -263,6 +263,11 @@ std::vector<Hostile> mesh_cases() {
         {"OffColourHuge", {{"m/f_0000.off", "COFF\n100000000 1 0\n0 0 0 1 1 1 1\n"}}, mhv("m/f_%04d.off"),
          "malformed OFF: 100000000 vertices and 1 faces do not fit in a file of"},
         {"OffMagicGarbage", {{"m/f_0000.off", "xyzOFF\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
+        {"OffFaceNegativeCount", {{"m/f_0000.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n-3 1 2 3\n"}}, mhv("m/f_%04d.off"),
+         "f_0000.off:7: face 0 does not start with its number of corners (3 or more)"},
+        {"PlyListCountFloat", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                                "element face 1\nproperty list float int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"}},
+         mhv("m/f_%04d.ply"), "f_0000.ply:8: malformed PLY header: the count of list vertex_indices is of type float; a count is an integer"},
         {"PlyBinaryListHuge", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{0xffffffff, 0, 1, 2}, {3, 0, 1, 3}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uint")}},
          mhv("m/f_%04d.ply"), "malformed PLY: row 0 of element face has a list of 4294967295 values, past the end of the file"},
         {"PlyBinaryIndexPastEnd", {{"m/f_0000.ply", binary_ply(kTetraXyz, {{3, 0, 2, 1}, {3, 0, 1, 9}, {3, 1, 2, 3}, {3, 0, 3, 2}}, "uchar")}},

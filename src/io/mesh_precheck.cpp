@@ -43,7 +43,8 @@ bool is_finite_number(const std::string& word) {
 void check_face_row(const std::string& line, std::uint64_t vertices, std::uint64_t face, const std::string& where) {
     std::istringstream words(line);
     long long n = 0, index = 0;
-    words >> n;
+    // OpenMesh takes the count as unsigned: -3 would ask for billions of corners.
+    if (!(words >> n) || n < 3) fail(where, "face {} does not start with its number of corners (3 or more)", face);
     for (long long k = 0; k < n; ++k)
         if (!(words >> index) || index < 0 || std::uint64_t(index) >= vertices)
             fail(where, "face {} names vertex {}, not one of the {} vertices", face, index, vertices);
@@ -169,6 +170,8 @@ void read_ply_header_line(const std::string& line, std::uint64_t number, const s
         const bool list = w.size() == 5 && w[1] == "list" && kTypes.count(w[2]) && kTypes.count(w[3]);
         if (h.elements.empty() || !(list || (w.size() == 3 && kTypes.count(w[1]))))
             fail(where, "malformed PLY header: a property line must follow an element and be 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+        if (list && (w[2] == "float" || w[2] == "float32" || w[2] == "double" || w[2] == "float64"))
+            fail(where, "malformed PLY header: the count of list {} is of type {}; a count is an integer", printable(w[4]), printable(w[2]));
         h.properties.back().push_back(list ? "list " + w[4] : w[2]);
         h.types.back().emplace_back(list ? w[2] : std::string(), list ? w[3] : w[1]);
     } else if (w[0] == "end_header" && w.size() == 1) {
@@ -233,13 +236,13 @@ void walk_binary_ply(PlyCursor cursor, const std::string& source, const PlyHeade
                     continue;
                 }
                 const auto value_bytes = double(ply_type(types[p].second).first);
-                if (value < 0 || value * value_bytes > double(cursor.size - cursor.position))
+                if (!(value >= 0) || value != std::floor(value) || value * value_bytes > double(cursor.size - cursor.position))
                     fail(source, "malformed PLY: row {} of element {} has a list of {} values, past the end of the file", row, printable(name), value);
                 const bool indices = name == "face" && (names[p] == "list vertex_indices" || names[p] == "list vertex_index");
                 for (std::uint64_t k = 0; k < std::uint64_t(value); ++k) {
                     double index = 0;
                     cursor.read(types[p].second, index);
-                    if (indices && (index < 0 || index >= double(vertices)))
+                    if (indices && !(index >= 0 && index < double(vertices)))
                         fail(source, "face {} names vertex {}, not one of the {} vertices", row, index, vertices);
                 }
             }
