@@ -570,6 +570,23 @@ TEST(Probe, VerdictIsMembershipInTheGroup) {
         if (poses.size() < 4) poses.push_back(*group.rbegin());
     }
     ASSERT_GT(group.size(), 3u);
+    // Poses on the 0.04 m / 30 deg lattice as whole steps (i, j, k, l).
+    auto steps = [](double x, double y, double theta, double z) {
+        return std::array<long, 4>{std::lround(x / 0.04), std::lround(y / 0.04), (std::lround(theta / 30.0) % 12 + 12) % 12, std::lround(z / 0.04)};
+    };
+    std::set<std::array<long, 4>> lattice_group;
+    for (const std::string& member : group) {
+        double x = 0, y = 0, theta = 0, z = 0;
+        std::sscanf(member.c_str(), "%lf,%lf,%lf,%lf", &x, &y, &theta, &z);
+        lattice_group.insert(steps(x, y, theta, z));
+    }
+    // One voxel beside members: when not members themselves, members are among their neighbours.
+    for (std::size_t n = 0, given = poses.size(); n < given; ++n) {
+        double x = 0, y = 0, theta = 0, z = 0;
+        std::sscanf(poses[n].c_str(), "%lf,%lf,%lf,%lf", &x, &y, &theta, &z);
+        poses.push_back(fmt::format("{},{},{},{}", x + 0.04, y, theta, z));
+    }
+    int beside = 0;
     std::mt19937 random(5);
     const auto x_m = segment["range"]["x_m"], y_m = segment["range"]["y_m"];
     for (int n = 0; n < 8; ++n) {
@@ -588,8 +605,24 @@ TEST(Probe, VerdictIsMembershipInTheGroup) {
         solutions += solution;
         EXPECT_EQ(solution, group.count(key) == 1) << pose << " -> " << key << " " << answer["verdict"];
         EXPECT_EQ(answer["gap_mm"].size(), 40u);
+        // A pose that fails lists its neighbours in the group: exactly the members one step away.
+        std::set<std::array<long, 4>> expected, listed;
+        if (!solution) {
+            const auto at = steps(p["x"].get<double>(), p["y"].get<double>(), p["theta_deg"].get<double>(), p["z"].get<double>());
+            for (int dk = -1; dk <= 1; ++dk)
+                for (int dj = -1; dj <= 1; ++dj)
+                    for (int di = -1; di <= 1; ++di) {
+                        const std::array<long, 4> n{at[0] + di, at[1] + dj, ((at[2] + dk) % 12 + 12) % 12, at[3]};
+                        if ((di || dj || dk) && lattice_group.count(n)) expected.insert(n);
+                    }
+        }
+        for (const auto& n : answer["neighbours_in_group"])
+            listed.insert(steps(n["x"].get<double>(), n["y"].get<double>(), n["theta_deg"].get<double>(), n["z"].get<double>()));
+        EXPECT_EQ(listed, expected) << pose;
+        beside += !listed.empty();
     }
     EXPECT_GE(solutions, 4);
+    EXPECT_GE(beside, 1);
     auto table = test::run_amhv(fmt::format("probe '{}/scene.toml' --pose {} --backend cpu", d.string(), poses.front()));
     EXPECT_NE(table.output.find("verdict: a solution"), std::string::npos) << table.output;
     auto bad = test::run_amhv(fmt::format("probe '{}/scene.toml' --pose 1,2", d.string()));

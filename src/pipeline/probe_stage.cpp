@@ -64,7 +64,19 @@ ProbeAnswer probe_scene(const Scene& scene, const ProbeRequest& request, Voxelis
     const auto [i, j, k, l] = snap(p, asked[0], asked[1], asked[2], asked[3], answer.snapped);
     const PoseRange& r = p.range;
     answer.in_range = i >= r.i_first && i <= r.i_last && j >= r.j_first && j <= r.j_last && l >= r.z_first && l <= r.z_last;
-    answer.probe = PoseProber(p).probe(i, j, k, l, true);
+    const PoseProber prober(p);
+    answer.probe = prober.probe(i, j, k, l, true);
+    if (answer.probe.outcome != PoseOutcome::Solution) {
+        const int angles = p.angle_lattice().count;
+        for (int dl = -1; dl <= 1; ++dl)
+            for (int dk = -1; dk <= 1; ++dk)
+                for (int dj = -1; dj <= 1; ++dj)
+                    for (int di = -1; di <= 1; ++di) {
+                        if ((di == 0 && dj == 0 && dk == 0 && dl == 0) || l + dl < r.z_first || l + dl > r.z_last) continue;
+                        const PoseProbe n = prober.probe(i + di, j + dj, ((k + dk) % angles + angles) % angles, l + dl, false);
+                        if (n.outcome == PoseOutcome::Solution) answer.neighbours_in_group.push_back(n.pose);
+                    }
+    }
     return answer;
 }
 
@@ -77,6 +89,13 @@ std::string probe_table(const ProbeAnswer& answer, int frames) {
                        answer.segment.index, answer.segment.type.name(), s.x, s.y, s.z, s.theta_deg, s.distance, s.theta_a_deg, s.theta_b_deg);
     out += p.outcome == PoseOutcome::Solution ? std::string("verdict: a solution\n")
                                               : fmt::format("verdict: fails {} (the first constraint it fails, as the sweep decides)\n", p.failed_constraint());
+    if (p.outcome != PoseOutcome::Solution) {
+        const auto& near = answer.neighbours_in_group;
+        if (near.empty()) out += "neighbours: none of the poses one voxel or one angle step away is a solution either\n";
+        else
+            out += fmt::format("neighbours: {} of the poses one voxel or one angle step away are solutions, the first x {:.4f} m, y {:.4f} m, z {:.4f} m, theta {:g} deg\n",
+                               near.size(), near[0].x, near[0].y, near[0].z, near[0].theta_deg);
+    }
     if (!answer.in_range) out += "note: the pose lies outside the range the sweep tests (there B's interest part cannot reach A's)\n";
     auto row = [&](const char* name, bool passes, const std::string& detail) { out += fmt::format("  {:<11} {:<6} {}\n", name, passes ? "passes" : "FAILS", detail); };
     row("contact", p.passes[0], fmt::format("{} voxels where the interest parts' unions meet", p.contact_voxels));
@@ -120,6 +139,9 @@ results::Json probe_json(const ProbeAnswer& answer) {
     results::Json gaps = results::Json::array();
     for (double g : p.gap_m) gaps.push_back(std::isinf(g) ? results::Json(nullptr) : results::Json(g * 1000));
     json["gap_mm"] = gaps;
+    results::Json neighbours = results::Json::array();
+    for (const Solution& n : answer.neighbours_in_group) neighbours.push_back({{"x", n.x}, {"y", n.y}, {"z", n.z}, {"theta_deg", n.theta_deg}});
+    json["neighbours_in_group"] = neighbours;
     return json;
 }
 

@@ -23,6 +23,10 @@ struct ProbeAnswer {
     PoseProbe probe;
     bool in_range = true;  // within the poses the sweep tests
     std::string snapped;   // a note when the pose asked for was moved onto the lattice ("" otherwise)
+    // When the pose fails: its lattice neighbours (one voxel in x, y and z within the range, one
+    // angle step) that are solutions, in (l, k, j, i) order. A pose just off the group is then told
+    // from one far from it.
+    std::vector<Solution> neighbours_in_group;
 };
 
 ProbeAnswer probe_scene(const Scene& scene, const ProbeRequest& request, Voxeliser& voxeliser);
