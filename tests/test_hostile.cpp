@@ -263,6 +263,8 @@ std::vector<Hostile> mesh_cases() {
         {"OffColourHuge", {{"m/f_0000.off", "COFF\n100000000 1 0\n0 0 0 1 1 1 1\n"}}, mhv("m/f_%04d.off"),
          "malformed OFF: 100000000 vertices and 1 faces do not fit in a file of"},
         {"OffMagicGarbage", {{"m/f_0000.off", "xyzOFF\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
+        {"OffCountsOnFirstLine", {{"m/f_0000.off", "OFF\r4 4 0\n11151111111111111111111110 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n"}}, mhv("m/f_%04d.off"),
+         "f_0000.off:1: malformed OFF: the vertex and face counts belong on the line after OFF"},
         {"OffFaceNegativeCount", {{"m/f_0000.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n-3 1 2 3\n"}}, mhv("m/f_%04d.off"),
          "f_0000.off:7: face 0 does not start with its number of corners (3 or more)"},
         {"PlyListCountFloat", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"

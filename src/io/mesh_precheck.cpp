@@ -109,9 +109,11 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
     if (line.find("BINARY") != std::string::npos)
         fail(fmt::format("{}:{}", source, number),
              "binary OFF is not read (the format leaves its byte order open); save the frame as ASCII OFF, PLY or STL");
+    // OpenMesh reads the counts from the line after the first, whatever follows the first word.
+    if (std::string rest; head >> rest)
+        fail(fmt::format("{}:{}", source, number), "malformed OFF: the vertex and face counts belong on the line after {}", printable(magic));
     long long vertices = -1, faces = -1;
-    if (!(head >> vertices) && next_line()) std::istringstream(line) >> vertices >> faces;
-    else head >> faces;
+    if (next_line()) std::istringstream(line) >> vertices >> faces;
     if (vertices < 0 || faces < 0) fail(fmt::format("{}:{}", source, number), "malformed OFF: expected the vertex and face counts");
     if (std::uint64_t(vertices) > size || std::uint64_t(faces) > size || std::uint64_t(vertices) * 6 + std::uint64_t(faces) * 8 > size)
         fail(fmt::format("{}:{}", source, number), "malformed OFF: {} vertices and {} faces do not fit in a file of {} bytes", vertices, faces, size);
