@@ -412,6 +412,33 @@ TEST(Edit, NearPassesWithinTheDistanceAndNeverTouches) {
     EXPECT_LE(nearest, 0.09 + 0.06);
 }
 
+// Tolerance that still touches (docs/method.md section 7c): with a 9 cm contact_tolerance and an
+// intent that asks for the roots 0.81 m apart, the DP chooses hands that hover; the edit then moves
+// B the least distance at which the hands meet without the tolerance (6 cm spheres on 3 cm voxels:
+// a gap of at most one voxel at every key frame).
+TEST(Edit, ContactToleranceStillTouches) {
+    EditFixture fixture("0&0a", "contact_tolerance = 0.09\nprefer = { distance_m = 0.81, weight = 100 }");
+    const fs::path out = fixture.dir.path() / "e";
+    auto run = test::run_amhv("edit " + fixture.quoted() + " --no-frames --no-timings --out '" + out.string() + "'");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_NE(run.output.find("so that the parts touch without contact_tolerance"), std::string::npos) << run.output;
+    const auto touch = read_json(out / "result.json").at("segments").at(0).at("touch_up");
+    EXPECT_TRUE(touch.at("touches").get<bool>());
+    EXPECT_GE(touch.at("moved_m").get<double>(), 0.03 - 1e-9);
+    EXPECT_LE(touch.at("moved_m").get<double>(), 0.09 + 1e-9);
+    const auto transforms = read_json(out / "transforms.json");
+    const auto key = std::find_if(transforms.at("segments").begin(), transforms.at("segments").end(),
+                                  [](const nlohmann::json& s) { return s.at("name") == "key 1"; });
+    ASSERT_NE(key, transforms.at("segments").end());
+    for (int m = key->at("output_frames")[0].get<int>(); m <= key->at("output_frames")[1].get<int>(); ++m) {
+        const auto& frame = transforms.at("output").at(std::size_t(m));
+        const int fa = frame.at("A").at("source").get<int>(), fb = frame.at("B").at("source").get<int>();
+        const Eigen::Vector2d a = apply(frame.at("A"), {walk(fa, 15, 24) + 0.3, 0.0});
+        const Eigen::Vector2d b = apply(frame.at("B"), {0.0, walk(fb, 20, 29) + 0.3});
+        EXPECT_LE((a - b).norm() - 0.12, 0.03) << m;
+    }
+}
+
 TEST(Edit, ReusesASweepAndGivesTheSameBytesOnBothBackendsAndOnReruns) {
     EditFixture fixture;
     const fs::path root = fixture.dir.path();

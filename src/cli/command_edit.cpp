@@ -62,6 +62,9 @@ void run_edit(const EditArguments& args) {
     for (const KeyEdit& k : edit.keys)
         std::cout << fmt::format("key segment {}: {} x = {:.3f} m, y = {:.3f} m, theta = {:.1f} deg (L = {:.3f} m)\n", k.index,
                                  k.captured ? "captured placement" : "chosen", k.chosen.x, k.chosen.y, k.chosen.theta_deg, k.chosen.distance);
+    for (const TouchUp& t : edit.touch_ups)
+        std::cout << (t.touches ? fmt::format("key segment {}: moved {:.3f} m so that the parts touch without contact_tolerance\n", t.key, t.moved_m)
+                                : fmt::format("key segment {}: {}\n", t.key, t.note));
     std::cout << fmt::format("wrote {}/: {} output frames (transforms.json{}{}{}, paths.svg, paths.png, views/key_N.png, result.json)\n",
                              out.target().string(), edit.timeline.length(), args.options.glb ? ", scene.glb" : "",
                              args.options.glb && args.options.page ? ", index.html" : "", args.options.frames ? ", frames/NNNN.ply" : "");

@@ -19,6 +19,7 @@
 #include "src/core/parallel.hpp"
 #include "src/edit/frame_check.hpp"
 #include "src/edit/natural.hpp"
+#include "src/edit/touch_up.hpp"
 #include "host/choose/chain_alternatives.hpp"
 #include "host/paths/path_opt.hpp"
 #include "src/sweep/pose_map.hpp"
@@ -626,6 +627,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
                                     "or pass --allow-transition-overlap",
                                     first_stuck, r.choices_tried - 1));
         r.choice = std::move(*choice);
+        r.touch_ups = touch_up_choice(scene, sweeps, a, b, voxeliser, captured, r.choice);
         const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
         if (!stuck) {
             natural.report(scene, sweeps, r);

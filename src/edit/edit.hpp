@@ -98,6 +98,15 @@ struct EditOptions {
     std::uint64_t natural_sampled = 20000;
 };
 
+// Tolerance that still touches (src/edit/touch_up.hpp), per key segment with a contact tolerance.
+struct TouchUp {
+    int key = 0;             // 1-based key segment
+    bool touches = false;    // the pose now chosen meets without the tolerance
+    double moved_m = 0;      // how far the choice moved on the floor
+    PoseIndex from, to;      // the DP's choice and the one kept
+    std::string note;        // why it could not touch, when it could not
+};
+
 struct EditResult {
     Timeline timeline;
     std::array<std::vector<ObjectFrameEdit>, 2> frames;  // A, B per output frame
@@ -111,6 +120,7 @@ struct EditResult {
     // be freed and the DP chose again without the key poses around it.
     int choices_tried = 1;
     std::vector<NaturalReport> natural;  // per key segment, when weights.natural > 0
+    std::vector<TouchUp> touch_ups;      // per key segment with a contact tolerance
     double natural_seconds = 0;
     double roots_seconds = 0, dp_seconds = 0, path_seconds = 0, check_seconds = 0;
 };

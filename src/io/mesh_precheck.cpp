@@ -100,9 +100,9 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
     std::string magic;
     head >> magic;
     // OpenMesh's grammar of the first word: [ST][C][N][4][n]OFF, then BINARY for a binary body.
-    static const std::regex kMagic("(ST)?C?N?(4)?(n)?OFF");
+    static const std::regex kOffMagic("(ST)?C?N?(4)?(n)?OFF");
     std::smatch parts;
-    if (!std::regex_match(magic, parts, kMagic))
+    if (!std::regex_match(magic, parts, kOffMagic))
         fail(fmt::format("{}:{}", source, number), "malformed OFF: it does not start with OFF (or one of its forms such as COFF, NOFF, STOFF)");
     if (parts[2].matched || parts[3].matched)
         fail(fmt::format("{}:{}", source, number), "{} declares vertices of more than three dimensions; amhv reads 3D meshes", printable(magic));

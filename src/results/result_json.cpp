@@ -231,6 +231,8 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
         }
         for (const NaturalReport& n : edit.natural)
             if (n.key == k.index) s["natural"] = natural_json(n);
+        for (const TouchUp& t : edit.touch_ups)
+            if (t.key == k.index) s["touch_up"] = {{"touches", t.touches}, {"moved_m", t.moved_m}, {"note", t.note.empty() ? Json(nullptr) : Json(t.note)}};
         s["edit"] = {{"a_rotation_deg", angles::degrees(k.a_rotation_rad)},
                      {"a_translation_m", {k.a_translation.x(), k.a_translation.y()}},
                      {"root_a_m", {k.root_a.x(), k.root_a.y()}},
