@@ -40,7 +40,9 @@ bool is_finite_number(const std::string& word) {
 }
 
 // A face row of a text OFF or PLY file: a count, then that many indices of the file's vertices.
-void check_face_row(const std::string& line, std::uint64_t vertices, std::uint64_t face, const std::string& where) {
+// In OFF (`off`), what follows the corners may only be a colour: OpenMesh reads the file word by
+// word, so any other word would be taken for the next face's count.
+void check_face_row(const std::string& line, std::uint64_t vertices, std::uint64_t face, const std::string& where, bool off = false) {
     std::istringstream words(line);
     long long n = 0, index = 0;
     // OpenMesh takes the count as unsigned: -3 would ask for billions of corners.
@@ -48,6 +50,14 @@ void check_face_row(const std::string& line, std::uint64_t vertices, std::uint64
     for (long long k = 0; k < n; ++k)
         if (!(words >> index) || index < 0 || std::uint64_t(index) >= vertices)
             fail(where, "face {} names vertex {}, not one of the {} vertices", face, index, vertices);
+    if (!off) return;
+    int extras = 0;
+    for (std::string word; words >> word; ++extras) {
+        const double value = std::strtod(word.c_str(), nullptr);
+        if (!is_finite_number(word) || value < 0 || value > 255 || extras == 4) extras = 99;
+    }
+    if (extras != 0 && extras != 3 && extras != 4)
+        fail(where, "face {} has words after its corners that are not a colour (3 or 4 numbers from 0 to 255)", face);
 }
 
 // OBJ: every vertex coordinate finite, every face index naming a vertex of the file (1-based, or
@@ -112,6 +122,10 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
     // OpenMesh reads the counts from the line after the first, whatever follows the first word.
     if (std::string rest; head >> rest)
         fail(fmt::format("{}:{}", source, number), "malformed OFF: the vertex and face counts belong on the line after {}", printable(magic));
+    // What a vertex row holds after x, y and z: texture coordinates (ST), a colour (C: RGB, or RGBA
+    // one more), a normal (N).
+    const bool colour = magic.find('C') != std::string::npos;
+    const int extra = (parts[1].matched ? 2 : 0) + (colour ? 3 : 0) + (magic.find('N') != std::string::npos ? 3 : 0);
     long long vertices = -1, faces = -1;
     if (next_line()) std::istringstream(line) >> vertices >> faces;
     if (vertices < 0 || faces < 0) fail(fmt::format("{}:{}", source, number), "malformed OFF: expected the vertex and face counts");
@@ -123,10 +137,18 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
         double x = 0, y = 0, z = 0;
         if (!(words >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
             fail(fmt::format("{}:{}", source, number), "vertex {} does not have three finite coordinates", v);
+        // As many more numbers as the form says (OpenMesh reads word by word: one more or less
+        // shifts every later vertex and face).
+        int more = 0;
+        for (std::string word; words >> word; ++more)
+            if (!is_finite_number(word)) more = 99;
+        if (more != extra && !(colour && more == extra + 1))
+            fail(fmt::format("{}:{}", source, number), "vertex {} has {} values after its coordinates where the {} form holds {}", v, more,
+                 printable(magic), colour ? fmt::format("{} or {}", extra, extra + 1) : std::to_string(extra));
     }
     for (long long f = 0; f < faces; ++f) {
         if (!next_line()) fail(source, "malformed OFF: {} faces declared, the file ends after {}", faces, f);
-        check_face_row(line, std::uint64_t(vertices), std::uint64_t(f), fmt::format("{}:{}", source, number));
+        check_face_row(line, std::uint64_t(vertices), std::uint64_t(f), fmt::format("{}:{}", source, number), true);
     }
 }
 
