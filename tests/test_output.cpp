@@ -124,9 +124,15 @@ TEST(Output, ASecondRunIntoTheSameFolderIsRefusedWhileTheFirstWrites) {
     const std::string alive = fmt::format("{}-0123456789abcdef", ::getpid());  // this test is alive
     write_user_file(tmp.path() / (".out.partial-" + alive) / StagedOutput::kMarker, "{\"amhv_output\": 2, \"staging\": \"" + alive + "\"}\n");
     fs::create_directories(tmp.path() / ".other.partial-999999");
+    // A run killed before its marker was whole: an empty staging folder, or one holding only a
+    // partial marker.
+    fs::create_directories(tmp.path() / ".out.partial-999997-0123456789abcdef");
+    write_user_file(tmp.path() / ".out.partial-999996-0123456789abcdef" / StagedOutput::kMarker, "{\"amhv_out");
     auto next = test::run_amhv(fmt::format("{} --out '{}'", mhv, out.string()));
     EXPECT_EQ(next.exit_code, 0) << next.output;
     EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + dead)));
+    EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999997-0123456789abcdef"));
+    EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999996-0123456789abcdef"));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-999998-0123456789abcdef" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-anything" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / (".out.partial-" + alive)));

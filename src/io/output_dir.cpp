@@ -274,7 +274,12 @@ void StagedOutput::remove_stale_staging() const {
         const OutputMarker marker = read_output_marker(entry.path());
         const bool ours = (marker.kind == OutputMarker::Kind::Staging && marker.run == m[1].str() + "-" + m[2].str()) ||
                           (marker.kind == OutputMarker::Kind::Finished && is_amhv_output(entry.path()));
-        if (ours) stale.push_back(entry.path());
+        // A run killed between creating its staging folder and finishing its marker leaves the
+        // folder empty or holding only a partial marker: nothing of anyone's to lose.
+        bool unstarted = marker.kind == OutputMarker::Kind::None || marker.kind == OutputMarker::Kind::Unknown;
+        for (const auto& inside : fs::directory_iterator(entry.path(), ec))
+            unstarted = unstarted && inside.path().filename() == kMarker && fs::is_regular_file(inside.symlink_status(ec));
+        if (ours || (unstarted && !ec)) stale.push_back(entry.path());
     }
     for (const fs::path& p : stale) fs::remove_all(p, ec);
 }
