@@ -488,12 +488,40 @@ TEST(Sweep, SolutionGroupHoldsRunsInTheSweepsOrder) {
     EXPECT_EQ(listed.size(), 295u);
     for (int n = 0; n < 500; ++n) {
         const PoseIndex p{int(random() % 23) - 11, int(random() % 11) - 5, int(random() % 7), int(random() % 3) - 1};
-        EXPECT_EQ(group.contains(p), std::find(poses.begin(), poses.end(), p) != poses.end());
+        const auto found = std::find(poses.begin(), poses.end(), p);
+        EXPECT_EQ(group.contains(p), found != poses.end());
+        EXPECT_EQ(group.index_of(p), found != poses.end() ? std::uint64_t(found - poses.begin()) : group.size());
     }
     EXPECT_TRUE(group.any_raised());
     EXPECT_THROW(group.add(poses.front()), Error);
     EXPECT_THROW(group.add(poses.back()), Error);
     EXPECT_THROW(group.at(group.size()), Error);
+}
+
+// The probe's per-frame gap compares only the two sets' boundary points: against every pair, on
+// solid blocks (mostly interior points), scattered points, and overlapping sets.
+TEST(Sweep, ProbeGapMatchesEveryPair) {
+    std::mt19937 random(61);
+    using detail::LatticePoint;
+    auto block = [&](std::int64_t x, std::int64_t y, std::int64_t z, int n) {
+        std::vector<LatticePoint> out;
+        for (int a = 0; a < n; ++a)
+            for (int b = 0; b < n; ++b)
+                for (int c = 0; c < n; ++c)
+                    if (random() % 5 != 0 || (a > 0 && a < n - 1)) out.push_back({x + a, y + b, z + c});
+        return out;
+    };
+    for (int trial = 0; trial < 40; ++trial) {
+        const int spread = 4 + trial;
+        std::vector<LatticePoint> a = block(0, 0, 0, 6 + trial % 5);
+        std::vector<LatticePoint> b = block(int(random() % spread) - 2, int(random() % spread) - 3, int(random() % spread) - 1, 3 + trial % 7);
+        std::int64_t brute = std::numeric_limits<std::int64_t>::max();
+        for (const auto& q : a)
+            for (const auto& r : b) brute = std::min(brute, (q[0] - r[0]) * (q[0] - r[0]) + (q[1] - r[1]) * (q[1] - r[1]) + (q[2] - r[2]) * (q[2] - r[2]));
+        EXPECT_EQ(detail::smallest_squared_gap(a, b), brute) << trial;
+    }
+    std::vector<LatticePoint> none, one{{1, 2, 3}};
+    EXPECT_EQ(detail::smallest_squared_gap(none, one), std::numeric_limits<std::int64_t>::max());
 }
 
 // Real hands part: two hands that touch for 7 frames and are 5 cm apart for the last 3. At the

@@ -53,23 +53,55 @@ std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, con
                 if (auto vb = lookup(s.b.interest, u); vb && s.b.interest.any(*vb)) pulled.push_back({u, *vb});
             }
     std::vector<double> gap_m(std::size_t(p.frames()), std::numeric_limits<double>::infinity());
+    std::vector<detail::LatticePoint> at_a, at_b;
     for (int t = 0; t < p.frames(); ++t) {
-        std::int64_t best = std::numeric_limits<std::int64_t>::max();
-        for (const LatticeVoxel& u : s.interest) {
-            if (!p.a.interest.occupied(u.index, t)) continue;
-            for (const auto& [w, vb] : pulled) {
-                if (!p.b.interest.occupied(vb, t)) continue;
-                const std::int64_t dx = u.gx - w.gx, dy = u.gy - w.gy, dz = u.gz - w.gz;
-                best = std::min(best, dx * dx + dy * dy + dz * dz);
-            }
-            if (best == 0) break;
-        }
+        at_a.clear(), at_b.clear();
+        for (const LatticeVoxel& u : s.interest)
+            if (p.a.interest.occupied(u.index, t)) at_a.push_back({u.gx, u.gy, u.gz});
+        for (const auto& [w, vb] : pulled)
+            if (p.b.interest.occupied(vb, t)) at_b.push_back({w.gx, w.gy, w.gz});
+        const std::int64_t best = detail::smallest_squared_gap(at_a, at_b);
         if (best != std::numeric_limits<std::int64_t>::max()) gap_m[std::size_t(t)] = h * std::sqrt(double(best));
     }
     return gap_m;
 }
 
 }  // namespace
+
+namespace detail {
+
+std::int64_t smallest_squared_gap(std::vector<LatticePoint>& a, std::vector<LatticePoint>& b) {
+    constexpr std::int64_t kNone = std::numeric_limits<std::int64_t>::max();
+    if (a.empty() || b.empty()) return kNone;
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    for (const LatticePoint& q : a)
+        if (std::binary_search(b.begin(), b.end(), q)) return 0;
+    // The points of a set with a face neighbour outside it.
+    auto boundary = [](const std::vector<LatticePoint>& set) {
+        std::vector<LatticePoint> out;
+        for (const LatticePoint& q : set)
+            for (int axis = 0; axis < 3; ++axis) {
+                LatticePoint below = q, above = q;
+                --below[std::size_t(axis)], ++above[std::size_t(axis)];
+                if (!std::binary_search(set.begin(), set.end(), below) || !std::binary_search(set.begin(), set.end(), above)) {
+                    out.push_back(q);
+                    break;
+                }
+            }
+        return out;
+    };
+    const std::vector<LatticePoint> edge_a = boundary(a), edge_b = boundary(b);
+    std::int64_t best = kNone;
+    for (const LatticePoint& q : edge_a)
+        for (const LatticePoint& r : edge_b) {
+            const std::int64_t dx = q[0] - r[0], dy = q[1] - r[1], dz = q[2] - r[2];
+            best = std::min(best, dx * dx + dy * dy + dz * dz);
+        }
+    return best;
+}
+
+}  // namespace detail
 
 PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
     const SweepProblem& p = problem_;

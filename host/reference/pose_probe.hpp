@@ -56,4 +56,13 @@ private:
 // Names of the constraints in the sweep's order, as messages and result.json use them.
 inline constexpr std::array<const char*, 4> kConstraintNames{"contact", "dictionary", "fidelity", "visibility"};
 
+namespace detail {
+using LatticePoint = std::array<std::int64_t, 3>;
+// The smallest squared distance (in voxels squared) between a point of `a` and one of `b`, or
+// INT64_MAX when either is empty. Exact: on disjoint sets a nearest pair lies on both sets'
+// boundaries (a point with all six neighbours in its set has a neighbour nearer the other point),
+// so only boundary points are compared. Sorts both vectors. Exposed for its test against brute force.
+std::int64_t smallest_squared_gap(std::vector<LatticePoint>& a, std::vector<LatticePoint>& b);
+}  // namespace detail
+
 }  // namespace amhv

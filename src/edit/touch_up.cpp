@@ -22,15 +22,6 @@ std::vector<std::array<int, 2>> offsets_within(int reach) {
     return out;
 }
 
-std::uint64_t member_number(const SolutionGroup& group, const PoseIndex& pose) {
-    std::uint64_t n = 0, found = group.size();
-    group.for_each([&](const PoseIndex& p) {
-        if (p == pose) found = n;
-        ++n;
-    });
-    return found;
-}
-
 }  // namespace
 
 std::vector<TouchUp> touch_up_choice(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b,
@@ -56,7 +47,7 @@ std::vector<TouchUp> touch_up_choice(const Scene& scene, const std::vector<KeySw
             t.touches = true;
             t.to = q;
             t.moved_m = h * std::sqrt(double(di * di + dj * dj));
-            choice.solution[n] = int(member_number(group, q));
+            choice.solution[n] = int(group.index_of(q));
             break;
         }
         if (!t.touches)

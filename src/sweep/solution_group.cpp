@@ -50,16 +50,20 @@ PoseIndex SolutionGroup::at(std::uint64_t n) const {
     return {run.i_first + int(n - starts_[r]), run.j, run.k, run.l};
 }
 
-bool SolutionGroup::contains(const PoseIndex& p) const {
+std::uint64_t SolutionGroup::index_of(const PoseIndex& p) const {
     const PoseRun probe{p.l, p.k, p.j, p.i, p.i};
     // The first run past (l, k, j, i); the one before it holds the pose if any does.
     auto after = std::upper_bound(runs_.begin(), runs_.end(), probe, [](const PoseRun& a, const PoseRun& b) {
         return std::tie(a.l, a.k, a.j, a.i_first) < std::tie(b.l, b.k, b.j, b.i_first);
     });
-    if (after == runs_.begin()) return false;
-    const PoseRun& run = *std::prev(after);
-    return row_key(run) == row_key(probe) && p.i >= run.i_first && p.i <= run.i_last;
+    if (after == runs_.begin()) return size();
+    const std::size_t r = std::size_t(std::prev(after) - runs_.begin());
+    const PoseRun& run = runs_[r];
+    if (row_key(run) != row_key(probe) || p.i < run.i_first || p.i > run.i_last) return size();
+    return starts_[r] + std::uint64_t(p.i - run.i_first);
 }
+
+bool SolutionGroup::contains(const PoseIndex& p) const { return index_of(p) < size(); }
 
 bool SolutionGroup::any_raised() const {
     return std::any_of(runs_.begin(), runs_.end(), [](const PoseRun& r) { return r.l != 0; });

@@ -41,6 +41,8 @@ public:
     // Member n (0 <= n < size()) in the sweep's order.
     PoseIndex at(std::uint64_t n) const;
     bool contains(const PoseIndex& pose) const;
+    // The member number of `pose` (at(index_of(p)) == p), or size() when it is not a member.
+    std::uint64_t index_of(const PoseIndex& pose) const;
     bool any_raised() const;  // some member has l != 0
     std::size_t memory_bytes() const { return runs_.capacity() * sizeof(PoseRun) + starts_.capacity() * sizeof(std::uint64_t); }
 
