@@ -1,5 +1,6 @@
 // BVH takes: the reader's tolerance and its errors, the T-pose rule, resampling, and
 // `amhv import-bvh` read back through the mesh, labels and track readers scenes use.
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -257,6 +258,39 @@ TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
 // Joints by role: the 18/19 skeleton keeps its names, the 20/21 one (LeftCollar, LeftShoulder =
 // upper arm, LeftElbow, LeftWrist, lhand, LeftHip, LeftKnee, lowerback, Chest2) maps onto them, and
 // a skeleton that lacks a role says which.
+// The capsule body's shoulders: each side's collar bone, from the base of the neck to the shoulder
+// joint, as its own part; the skinned body keeps them in its torso. Either way the body is the
+// same union (the parts only regroup capsules).
+TEST(SkeletonBody, ShouldersAreTheCollarBonesOfTheCapsuleBody) {
+    const BvhMotion motion = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
+    const std::vector<std::string> capsules = body_part_names(motion), skinned = body_part_names(motion, true);
+    for (const char* side : {"left_shoulder", "right_shoulder"}) {
+        EXPECT_NE(std::find(capsules.begin(), capsules.end(), side), capsules.end()) << side;
+        EXPECT_EQ(std::find(skinned.begin(), skinned.end(), side), skinned.end()) << side;
+    }
+    const int f = 120;
+    const SkeletonBodyOptions options;
+    const auto roles = role_names(motion);
+    const auto global = motion.global_transforms(f);
+    auto joint = [&](const char* role) {
+        const std::size_t j = std::size_t(std::find(roles.begin(), roles.end(), role) - roles.begin());
+        return to_scene_point(global[j].translation(), options.units);
+    };
+    std::size_t vertices = 0;
+    for (const BodyPart& part : skeleton_body_parts(motion, f, options)) {
+        vertices += part.mesh.vertices.size();
+        if (part.name != "right_shoulder") continue;
+        // Every vertex within the capsule's radius of the segment from the neck's base to the shoulder.
+        const Vec3 a = joint("RightShoulder"), b = joint("RightArm");
+        ASSERT_FALSE(part.mesh.vertices.empty());
+        for (const Vec3& v : part.mesh.vertices) {
+            const double s = std::clamp((v - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+            EXPECT_NEAR((v - (a + s * (b - a))).norm(), bone_radius("RightShoulder", "RightArm"), 1e-6);
+        }
+    }
+    EXPECT_EQ(vertices, skeleton_body(motion, f, options).vertices.size());
+}
+
 TEST(SkeletonRoles, MapJointsByRoleAndNameWhatIsMissing) {
     const BvhMotion cmu18 = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
     const std::vector<std::string> same = role_names(cmu18);

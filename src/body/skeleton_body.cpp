@@ -51,7 +51,9 @@ std::string body_part(const std::string& parent) {
     if (contains(parent, "Head") || contains(parent, "Neck")) return "head";
     if (contains(parent, "Hand") || contains(parent, "Finger") || contains(parent, "Thumb") || contains(parent, "Index")) return side + "hand";
     if (contains(parent, "ForeArm")) return side + "forearm";
-    if (contains(parent, "Shoulder")) return "torso";
+    // The collar bone, from the neck's base to the shoulder joint: the top of the shoulder and the
+    // trapezius over it (a side's own part; the skinned body keeps it in its torso).
+    if (contains(parent, "Shoulder")) return side.empty() ? "torso" : side + "shoulder";
     if (contains(parent, "Arm")) return side + "upper_arm";
     if (contains(parent, "UpLeg")) return side + "thigh";
     if (contains(parent, "Foot") || contains(parent, "Toe")) return side + "foot";
@@ -62,15 +64,20 @@ std::string body_part(const std::string& parent) {
 const std::vector<std::string>& body_part_names() {
     static const std::vector<std::string> names{"head", "torso", "left_upper_arm", "left_forearm", "left_hand", "right_upper_arm",
                                                 "right_forearm", "right_hand", "left_thigh", "left_shin", "left_foot",
-                                                "right_thigh", "right_shin", "right_foot"};
+                                                "right_thigh", "right_shin", "right_foot", "left_shoulder", "right_shoulder"};
     return names;
 }
 
-std::vector<std::string> body_part_names(const BvhMotion& motion) {
+std::string skinned_body_part(const std::string& parent) {
+    std::string part = body_part(parent);
+    return part.ends_with("shoulder") ? "torso" : part;
+}
+
+std::vector<std::string> body_part_names(const BvhMotion& motion, bool skinned) {
     const std::vector<std::string> roles = role_names(motion);
     std::vector<std::string> present;
     for (const BvhJoint& joint : motion.joints)
-        if (joint.parent >= 0) present.push_back(body_part(roles[std::size_t(joint.parent)]));
+        if (joint.parent >= 0) present.push_back(skinned ? skinned_body_part(roles[std::size_t(joint.parent)]) : body_part(roles[std::size_t(joint.parent)]));
     std::vector<std::string> names;
     for (const std::string& n : body_part_names())
         if (std::find(present.begin(), present.end(), n) != present.end()) names.push_back(n);

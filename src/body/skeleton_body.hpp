@@ -27,13 +27,18 @@ struct SkeletonBodyOptions {
     std::shared_ptr<const SkinnedFit> skinned;
 };
 
-// The body part (head, torso, left_upper_arm, left_forearm, left_hand, ..., right_foot) of the bone
+// The body part (head, torso, left_upper_arm, left_forearm, left_hand, ..., right_foot,
+// left_shoulder, right_shoulder) of the bone
 // that starts at joint `parent`. A joint whose name contains "Sword" or "Prop" starts a hand-held
 // prop (part "sword" or "prop"): mocap exports rigid props as extra joints under a hand.
 std::string body_part(const std::string& parent);
+// The same for the skinned human, whose mesh is split by skin weight: the collar bones'
+// vertices stay in its torso (a shoulder region cut from the torso would not close as a surface).
+std::string skinned_body_part(const std::string& parent);
 const std::vector<std::string>& body_part_names();
-// The parts a skeleton's bones give (body_part_names' order, props last).
-std::vector<std::string> body_part_names(const BvhMotion& motion);
+// The parts a skeleton's bones give (body_part_names' order, props last), for the capsule body or
+// the skinned one.
+std::vector<std::string> body_part_names(const BvhMotion& motion, bool skinned = false);
 
 struct BodyPart {
     std::string name;

@@ -507,7 +507,7 @@ std::shared_ptr<const SkinnedFit> fit_skin_model(const SkinModel& model, const B
         fit->drivers.push_back(d);
         fit->weights.push_back(model.weights[v]);
         const std::size_t strongest = std::size_t(std::max_element(model.weights[v].begin(), model.weights[v].end()) - model.weights[v].begin());
-        vertex_part[v] = body_part(roles[std::size_t(fit->joints[std::size_t(d[strongest])].bvh_joint)]);
+        vertex_part[v] = skinned_body_part(roles[std::size_t(fit->joints[std::size_t(d[strongest])].bvh_joint)]);
     }
     fit->derived = model.derived;
     for (std::size_t k = 0; k < model.derived.size(); ++k) vertex_part[model.welded_vertices() + k] = vertex_part[model.derived[k].front()];

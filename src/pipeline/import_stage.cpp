@@ -28,7 +28,7 @@ std::array<std::uint8_t, 3> part_colour(std::size_t index) {
 void import_bvh_into(const BvhMotion& motion, const std::string& bvh, const FrameRange& range, const SkeletonBodyOptions& options,
                      const fs::path& out) {
     const std::vector<TrackSample> track = skeleton_track(motion, options);
-    const std::vector<std::string> part_names = body_part_names(motion);
+    const std::vector<std::string> part_names = body_part_names(motion, options.skinned != nullptr);
     fs::create_directories(out / "meshes");
     fs::create_directories(out / "labels");
     std::string csv = "# amhv import-bvh: frame, eye x y z, gaze x y z (metres, z up)\n";

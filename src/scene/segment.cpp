@@ -179,7 +179,7 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
         body_options_.units = spec_.units;
         auto samples = skeleton_track(*motion_, body_options_);
         for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];
-        label_names_ = body_part_names(*motion_);
+        label_names_ = body_part_names(*motion_, spec_.body == BodyKind::Skinned);
     }
     if (!spec_.track.empty()) track_ = read_track_csv(spec_.track, spec_.units);
 }
