@@ -265,10 +265,12 @@ std::vector<Hostile> mesh_cases() {
         {"OffMagicGarbage", {{"m/f_0000.off", "xyzOFF\n3 1 0\n"}}, mhv("m/f_%04d.off"), "f_0000.off:1: malformed OFF: it does not start with OFF"},
         {"OffCountsOnFirstLine", {{"m/f_0000.off", "OFF\r4 4 0\n11151111111111111111111110 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n"}}, mhv("m/f_%04d.off"),
          "f_0000.off:1: malformed OFF: the vertex and face counts belong on the line after OFF"},
-        {"OffFaceTrailingWords", {{"m/f_0000.off", "OFF\n4 2 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 3 44488888888888888881 0 2 1r\n3 0 3 2\n2\n"}},
+        {"OffFaceTrailingWords", {{"m/f_0000.off", "OFF\n4 2 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 3 44488888888888888881 0 2 1r\n3 0 3 2\n2\n"}},
          mhv("m/f_%04d.off"), "f_0000.off:7: face 0 has words after its corners that are not a colour (3 or 4 numbers from 0 to 255)"},
         {"OffVertexExtraWord", {{"m/f_0000.off", "OFF\n4 4 0\n0 0 0 99999999999\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"}},
          mhv("m/f_%04d.off"), "f_0000.off:3: vertex 0 has 1 values after its coordinates where the OFF form holds 0"},
+        {"OffCountsWithoutEdges", {{"m/f_0000.off", "OFF\n3 1  \n0 0 0\n1 0 0\n0 1 0\n3 0 2 1\n 3555555555555555555555555555555\n01\n"}},
+         mhv("m/f_%04d.off"), "f_0000.off:2: malformed OFF: expected the vertex, face and edge counts (three numbers) on this line"},
         {"OffFaceNegativeCount", {{"m/f_0000.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n-3 1 2 3\n"}}, mhv("m/f_%04d.off"),
          "f_0000.off:7: face 0 does not start with its number of corners (3 or more)"},
         {"PlyListCountFloat", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"

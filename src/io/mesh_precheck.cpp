@@ -126,9 +126,16 @@ void precheck_off(std::istream& in, const std::string& source, std::uint64_t siz
     // one more), a normal (N).
     const bool colour = magic.find('C') != std::string::npos;
     const int extra = (parts[1].matched ? 2 : 0) + (colour ? 3 : 0) + (magic.find('N') != std::string::npos ? 3 : 0);
-    long long vertices = -1, faces = -1;
-    if (next_line()) std::istringstream(line) >> vertices >> faces;
-    if (vertices < 0 || faces < 0) fail(fmt::format("{}:{}", source, number), "malformed OFF: expected the vertex and face counts");
+    // The counts line holds exactly the vertex, face and edge counts (OpenMesh reads a missing edge
+    // count from the next line, and every row after it shifts).
+    long long vertices = -1, faces = -1, edges = -1;
+    if (next_line()) {
+        std::istringstream counts(line);
+        std::string after;
+        if (!(counts >> vertices >> faces >> edges) || (counts >> after)) vertices = -1;
+    }
+    if (vertices < 0 || faces < 0 || edges < 0)
+        fail(fmt::format("{}:{}", source, number), "malformed OFF: expected the vertex, face and edge counts (three numbers) on this line");
     if (std::uint64_t(vertices) > size || std::uint64_t(faces) > size || std::uint64_t(vertices) * 6 + std::uint64_t(faces) * 8 > size)
         fail(fmt::format("{}:{}", source, number), "malformed OFF: {} vertices and {} faces do not fit in a file of {} bytes", vertices, faces, size);
     for (long long v = 0; v < vertices; ++v) {
