@@ -618,6 +618,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     r.voxel = scene.sampling.voxel;
     const SeparationContext context{scene, {&a, &b}, voxeliser, path_weights(scene)};
     std::string first_stuck;
+    ExactKeys exact;
     for (r.choices_tried = 1;; ++r.choices_tried) {
         t0 = std::chrono::steady_clock::now();
         std::optional<ChainChoice> choice = alternatives.next();
@@ -627,7 +628,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
                                     "or pass --allow-transition-overlap",
                                     first_stuck, r.choices_tried - 1));
         r.choice = std::move(*choice);
-        r.touch_ups = touch_up_choice(scene, sweeps, a, b, voxeliser, captured, r.choice);
+        r.touch_ups = touch_up_choice(scene, sweeps, a, b, voxeliser, captured, exact, r.choice);
         const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
         if (!stuck) {
             natural.report(scene, sweeps, r);

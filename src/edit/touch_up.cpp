@@ -24,8 +24,22 @@ std::vector<std::array<int, 2>> offsets_within(int reach) {
 
 }  // namespace
 
+ExactKeys::ExactKeys() = default;
+ExactKeys::~ExactKeys() = default;
+
+const PoseProber& ExactKeys::prober(const Scene& scene, std::size_t key, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
+    auto& [build, prober] = built_[key];
+    if (!prober) {
+        KeySegment exact = scene.segments[key];
+        exact.contact_tolerance = 0;
+        build = std::make_unique<SegmentBuild>(build_segment(scene, exact, a, b, voxeliser));
+        prober = std::make_unique<PoseProber>(build->problem);
+    }
+    return *prober;
+}
+
 std::vector<TouchUp> touch_up_choice(const Scene& scene, const std::vector<KeySweep>& sweeps, ObjectSource& a, ObjectSource& b,
-                                     Voxeliser& voxeliser, const std::vector<bool>& captured, ChainChoice& choice) {
+                                     Voxeliser& voxeliser, const std::vector<bool>& captured, ExactKeys& exact, ChainChoice& choice) {
     std::vector<TouchUp> out;
     const double h = scene.sampling.voxel;
     for (std::size_t n = 0; n < sweeps.size(); ++n) {
@@ -36,10 +50,7 @@ std::vector<TouchUp> touch_up_choice(const Scene& scene, const std::vector<KeySw
         TouchUp t;
         t.key = key.index;
         t.from = t.to = group.at(std::uint64_t(choice.solution[n]));
-        KeySegment exact = key;
-        exact.contact_tolerance = 0;
-        const SegmentBuild build = build_segment(scene, exact, a, b, voxeliser);
-        const PoseProber prober(build.problem);
+        const PoseProber& prober = exact.prober(scene, n, a, b, voxeliser);
         const int reach = int(std::floor(key.contact_tolerance / h + 1e-9));
         for (const auto& [di, dj] : offsets_within(reach)) {
             const PoseIndex q{t.from.i + di, t.from.j + dj, t.from.k, t.from.l};
