@@ -354,6 +354,8 @@ std::vector<Hostile> scene_cases() {
          "objects.B.floor: must be \"auto\" or a height in metres"},
         {"SceneFloorHuge", with("bvh = \"cmu/19_01.bvh\"", "bvh = \"cmu/19_01.bvh\"\nfloor = 1e9"), check, "objects.B.floor: 1000000000 is out of range [-100, 100]"},
         {"SceneBvhMissing", {{"scene.toml", kScene}}, check, "18_01.bvh"},
+        {"SceneBvhNameTooLong", with("bvh = \"cmu/19_01.bvh\"", "bvh = \"cmu/" + std::string(300, 'x') + ".bvh\""), check,
+         "xxxxxxxx.bvh' is not a file"},
         {"SceneMemory", with("voxel = 0.04", "voxel = 0.002"), sweep + " --max-memory 0.5", "more than the 0.5 GB --max-memory allows; use a voxel of at least"},
         {"TrackFrameHuge", {{"m/f_0000.obj", kTetra}, {"m/f_0001.obj", kTetra}, {"scene.toml", kMeshScene}, {"track.csv", kTrack + "1e20,0,0,1.6,1,0,0\n"}},
          check, "track.csv:4: frame 1e+20 is not a whole frame number"},

@@ -425,6 +425,12 @@ TEST(Security, SmallMistakesInInputsAreNamed) {
     EXPECT_EQ(shard.exit_code, 1) << shard.output;
     EXPECT_NE(shard.output.find("a value has the wrong type"), std::string::npos) << shard.output;
     EXPECT_EQ(shard.output.find("json."), std::string::npos) << shard.output;
+    // A count that is a number but no integer the count can hold (the JSON library would cast it).
+    write_text(d / "shard" / "shard.json", R"({"kind": "amhv sweep shard", "program": "amhv", "scene": "s.toml", "scene_hash": "0", "inputs": "0",
+                                            "sampling": {"voxel_m": 0.04, "angle_step_deg": 30, "angles": 1e300}})");
+    auto huge = test::run_amhv(fmt::format("merge '{0}/shard' --out '{0}/merged'", d.string()));
+    EXPECT_EQ(huge.exit_code, 1) << huge.output;
+    EXPECT_NE(huge.output.find("shard.json: is not a shard's manifest (a value has the wrong type)"), std::string::npos) << huge.output;
     // A take that promises ten million frames and holds two reserves no more than it can hold.
     const std::string take = "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
                              " End Site\n {\n  OFFSET 0 10 0\n }\n}\nMOTION\nFrames: 10000000\nFrame Time: 0.04\n0 0 0 0 0 0\n0 0 0 0 0 0\n";

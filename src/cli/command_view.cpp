@@ -4,6 +4,7 @@
 #include <iostream>
 #include <unistd.h>
 
+#include "src/io/files.hpp"
 #include "src/cli/commands.hpp"
 #include "src/core/error.hpp"
 #include "src/io/output_dir.hpp"
@@ -47,7 +48,7 @@ void write_page_into(const fs::path& dir) {
 
 void run_view(const ViewArguments& args) {
     const fs::path dir = args.dir;
-    if (!fs::is_directory(dir)) fail(dir.string(), "is not a folder");
+    if (!is_folder(dir)) fail(dir.string(), "is not a folder");
     write_page_into(dir);
     if (args.port) pipeline::serve_folder(dir, args.port);
 }

@@ -55,4 +55,14 @@ std::string read_file_bytes(const std::filesystem::path& path, std::uintmax_t li
     return bytes;
 }
 
+bool is_file(const std::filesystem::path& path) noexcept {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+bool is_folder(const std::filesystem::path& path) noexcept {
+    std::error_code ec;
+    return std::filesystem::is_directory(path, ec);
+}
+
 }  // namespace amhv

@@ -20,6 +20,11 @@ std::string read_file_bytes(const std::filesystem::path& path, std::uintmax_t li
 // The shipped data (scenes/, cmu/, bodies/): AMHV_DATA_DIR in the environment, else the source tree's data/.
 std::filesystem::path shipped_data_dir();
 
+// Whether `path` is a regular file (following links) / a folder; false, without throwing, where the
+// system cannot tell (a name too long, a loop of links, no permission): paths come from input files.
+bool is_file(const std::filesystem::path& path) noexcept;
+bool is_folder(const std::filesystem::path& path) noexcept;
+
 // Closes `out` and throws amhv::Error naming `path` if any write to it or the close failed.
 void finish_file(std::ofstream& out, const std::filesystem::path& path);
 

@@ -11,6 +11,7 @@
 #include "src/core/angles.hpp"
 #include "src/core/clock.hpp"
 #include "src/core/error.hpp"
+#include "src/io/json_problem.hpp"
 #include "src/edit/frame_check.hpp"
 #include "src/results/edit_files.hpp"
 #include "src/results/key_views.hpp"
@@ -173,7 +174,7 @@ std::string nearest_miss(const SweepStage& sweep) {
         const results::Json& m = s["near_misses"][0];
         return fmt::format("; its nearest miss, x = {:.2f} m, y = {:.2f} m, theta = {:.0f} deg, fails {} on {} of {} frames", m["x"].get<double>(),
                            m["y"].get<double>(), m["theta_deg"].get<double>(), m["fails"].get<std::string>(), m["frames_failed"].size(),
-                           m["frames"].get<int>());
+                           json_integer<int>(m["frames"]));
     }
     return "";
 }

@@ -150,8 +150,8 @@ std::string inputs_fingerprint(const Scene& scene) {
     const fs::path folder = scene.file.parent_path();
     for (auto input = inputs.begin() + 1; input != inputs.end(); ++input) {  // the TOML itself is the scene hash
         const std::string name = fs::absolute(*input).lexically_relative(folder).string();
-        if (fs::is_regular_file(*input)) text += fmt::format("{} {} {:08x}\n", name, fs::file_size(*input), file_crc(*input));
-        else if (fs::is_directory(*input)) text += fmt::format("{}/ {}\n", name, folder_listing(*input));
+        if (is_file(*input)) text += fmt::format("{} {} {:08x}\n", name, fs::file_size(*input), file_crc(*input));
+        else if (is_folder(*input)) text += fmt::format("{}/ {}\n", name, folder_listing(*input));
     }
     return fmt::format("{:08x}", std::uint32_t(crc32(crc32(0, nullptr, 0), reinterpret_cast<const Bytef*>(text.data()), uInt(text.size()))));
 }

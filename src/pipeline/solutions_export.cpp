@@ -33,7 +33,7 @@ PoseDescriber facings_of(const fs::path& dir, int segment, const results::GroupL
     try {
         const nlohmann::json json = nlohmann::json::parse(text);
         for (const auto& s : json.at("segments"))
-            if (s.at("index").get<int>() == segment) {
+            if (json_integer<int>(s.at("index")) == segment) {
                 const auto fa = s.at("facing").at("A").get<std::array<double, 2>>(), fb = s.at("facing").at("B").get<std::array<double, 2>>();
                 describe.facing_a = Eigen::Vector2d(fa[0], fa[1]);
                 describe.facing_b = Eigen::Vector2d(fb[0], fb[1]);

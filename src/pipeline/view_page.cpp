@@ -56,7 +56,7 @@ Json read_json(const fs::path& file) {
 // The natural scores of the plotted members (segment_N/natural.json, written by the edit), or
 // null when the edit wrote none or they do not match the group's stride and count.
 Json natural_costs(const fs::path& file, std::uint64_t stride, std::size_t rows) {
-    if (!fs::is_regular_file(file)) return nullptr;
+    if (!is_file(file)) return nullptr;
     const Json natural = read_json(file);
     if (!natural.is_object() || !natural.contains("stride") || !natural.contains("costs") || !natural["costs"].is_array() ||
         natural["stride"] != stride || natural["costs"].size() != rows)
@@ -69,7 +69,7 @@ Json natural_costs(const fs::path& file, std::uint64_t stride, std::size_t rows)
 // Every group member up to kPagePlottedMembers, else every n-th by rank: x, y, z, theta, L,
 // thetaA, thetaB, and the natural score when the edit wrote them (`edit_dir`).
 Json group_rows(const fs::path& dir, const fs::path& edit_dir, const Json& segment) {
-    const int index = segment.at("index").get<int>();
+    const int index = json_integer<int>(segment.at("index"));
     const GroupRead group = read_group(dir, index);
     const std::uint64_t members = group.group.size();
     const std::uint64_t stride = sample_stride(members, kPagePlottedMembers);
@@ -86,7 +86,7 @@ Json group_rows(const fs::path& dir, const fs::path& edit_dir, const Json& segme
     if (!costs.is_null())
         for (std::size_t r = 0; r < costs.size(); ++r) out["rows"][r].push_back(costs[r]);
     const fs::path montage = fs::path(fmt::format("segment_{}", index)) / "feasibility" / "montage.png";
-    if (fs::is_regular_file(dir / montage)) out["montage"] = montage.generic_string();
+    if (is_file(dir / montage)) out["montage"] = montage.generic_string();
     return out;
 }
 
@@ -104,7 +104,7 @@ std::string page_data(const fs::path& dir) {
     fs::path groups_dir = dir;
     if (result.contains("from_sweep") && result.at("from_sweep").is_string()) {
         groups_dir = result.at("from_sweep").get<std::string>();
-        if (!fs::is_directory(groups_dir))
+        if (!is_folder(groups_dir))
             fail((dir / "result.json").string(), "reused the sweep in '{}', which holds the groups the page plots and is gone", groups_dir.string());
     }
     Json groups = Json::array();
@@ -126,13 +126,13 @@ fs::path three_js_dir() {
 
 PageReport write_view_page(const fs::path& dir, const fs::path& out) {
     const fs::path glb = dir / "scene.glb";
-    if (!fs::is_regular_file(dir / "result.json")) fail(dir.string(), "has no result.json: the page is for the output of `amhv edit`");
+    if (!is_file(dir / "result.json")) fail(dir.string(), "has no result.json: the page is for the output of `amhv edit`");
     const fs::path three = three_js_dir();
     for (const auto& [from, to] : kThreeFiles)
-        if (!fs::is_regular_file(three / from))
+        if (!is_file(three / from))
             fail((three / from).string(), "is missing: the page needs three.js r147 (tools/setup.sh installs it from npm; or pass --no-page)");
     const std::string data = page_data(dir);  // refuses a folder that is no edit's
-    if (!fs::is_regular_file(glb)) fail(glb.string(), "is missing: the page plays it (run `amhv edit` without --no-glb)");
+    if (!is_file(glb)) fail(glb.string(), "is missing: the page plays it (run `amhv edit` without --no-glb)");
     const fs::path view = out / "view";
     fs::create_directories(view);
     for (const auto& [from, to] : kThreeFiles) fs::copy_file(three / from, view / to, fs::copy_options::overwrite_existing);

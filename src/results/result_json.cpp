@@ -61,10 +61,10 @@ Json capture_keys_json(const KeySegment& segment) {
 const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySegment& key, const std::string& where) {
     const nlohmann::json* s = nullptr;
     for (const auto& item : segments)
-        if (item.at("index").get<int>() == key.index) s = &item;
+        if (json_integer<int>(item.at("index")) == key.index) s = &item;
     if (!s) fail(where, "has no key segment {}: sweep every segment (no --segment) before --from-sweep", key.index);
     if (s->at("frames_a").get<std::array<int, 2>>() != key.a || s->at("frames_b").get<std::array<int, 2>>() != key.b ||
-        s->at("type").get<std::string>() != key.type.name() || s->at("tolerance").get<int>() != key.tolerance ||
+        s->at("type").get<std::string>() != key.type.name() || json_integer<int>(s->at("tolerance")) != key.tolerance ||
         s->at("visibility").at("enabled").get<bool>() != key.visibility.enabled ||
         s->at("visibility").at("half_angle_deg").get<double>() != key.visibility.half_angle_deg ||
         s->at("interest").at("A").get<std::string>() != key.interest_a.describe() ||
@@ -99,10 +99,10 @@ KeySweep key_sweep_of(const nlohmann::json& s, const KeySegment& key, const Scen
     k.root_b = Vec3(rb[0], rb[1], rb[2]);
     const auto fa = s.at("facing").at("A").get<std::array<double, 2>>(), fb = s.at("facing").at("B").get<std::array<double, 2>>();
     k.describe = {scene.sampling.voxel, scene.sampling.angle_step_deg, Eigen::Vector2d(fa[0], fa[1]), Eigen::Vector2d(fb[0], fb[1])};
-    k.poses_tested = s.at("poses_tested").get<std::uint64_t>();
+    k.poses_tested = json_integer<std::uint64_t>(s.at("poses_tested"));
     const auto& rej = s.at("rejected");
-    k.rejected = {rej.at("contact").get<std::uint64_t>(), rej.at("dictionary").get<std::uint64_t>(), rej.at("fidelity").get<std::uint64_t>(),
-                  rej.at("visibility").get<std::uint64_t>()};
+    k.rejected = {json_integer<std::uint64_t>(rej.at("contact")), json_integer<std::uint64_t>(rej.at("dictionary")), json_integer<std::uint64_t>(rej.at("fidelity")),
+                  json_integer<std::uint64_t>(rej.at("visibility"))};
     return k;
 }
 
@@ -117,8 +117,8 @@ void check_group(const SolutionGroup& group, const nlohmann::json& entry, const 
         if (r.i_first < i_first || r.i_last > i_last || r.j < j_first || r.j > j_last)
             fail(file.string(), "holds poses at x {}..{} m, y {} m (theta index {}), outside the range x [{}, {}] m, y [{}, {}] m the segment was swept over",
                  r.i_first * h, r.i_last * h, r.j * h, r.k, x_m[0], x_m[1], y_m[0], y_m[1]);
-    if (group.size() != entry.at("solutions").get<std::uint64_t>())
-        fail(file.string(), "holds {} poses but result.json says the group has {} solutions", group.size(), entry.at("solutions").get<std::uint64_t>());
+    if (group.size() != json_integer<std::uint64_t>(entry.at("solutions")))
+        fail(file.string(), "holds {} poses but result.json says the group has {} solutions", group.size(), json_integer<std::uint64_t>(entry.at("solutions")));
 }
 
 // Per transitional segment: the frames checked, those where the bodies overlap before and after

@@ -109,22 +109,23 @@ nlohmann::json range_json(const PoseRange& r) {
 
 PoseRange range_of(const nlohmann::json& j) {
     PoseRange r;
-    r.i_first = j.at("i").at(0).get<int>(), r.i_last = j.at("i").at(1).get<int>();
-    r.j_first = j.at("j").at(0).get<int>(), r.j_last = j.at("j").at(1).get<int>();
-    r.z_first = j.at("z").at(0).get<int>(), r.z_last = j.at("z").at(1).get<int>();
-    r.angles = j.at("angles").get<int>();
+    r.i_first = json_integer<int>(j.at("i").at(0)), r.i_last = json_integer<int>(j.at("i").at(1));
+    r.j_first = json_integer<int>(j.at("j").at(0)), r.j_last = json_integer<int>(j.at("j").at(1));
+    r.z_first = json_integer<int>(j.at("z").at(0)), r.z_last = json_integer<int>(j.at("z").at(1));
+    r.angles = json_integer<int>(j.at("angles"));
     return r;
 }
 
 ShardPieceRecord piece_of(const nlohmann::json& j) {
     ShardPieceRecord p;
-    p.piece.segment = j.at("segment").get<int>();
-    p.piece.first_angle = j.at("angles").at(0).get<int>();
-    p.piece.angle_count = j.at("angles").at(1).get<int>() - p.piece.first_angle + 1;
+    p.piece.segment = json_integer<int>(j.at("segment"));
+    p.piece.first_angle = json_integer<int>(j.at("angles").at(0));
+    const std::int64_t last_angle = json_integer<int>(j.at("angles").at(1));
+    p.piece.angle_count = int(std::clamp<std::int64_t>(last_angle - p.piece.first_angle + 1, 0, std::numeric_limits<int>::max()));
     p.range = range_of(j.at("range"));
     p.file = j.at("file").get<std::string>();
-    p.poses = j.at("poses").get<std::uint64_t>();
-    p.file_bytes = j.at("file_bytes").get<std::uint64_t>();
+    p.poses = json_integer<std::uint64_t>(j.at("poses"));
+    p.file_bytes = json_integer<std::uint64_t>(j.at("file_bytes"));
     p.crc32 = std::uint32_t(std::stoul(j.at("crc32").get<std::string>(), nullptr, 16));
     if (j.contains("sweep_s")) p.sweep_seconds = j.at("sweep_s").get<double>();
     return p;
@@ -159,7 +160,7 @@ void write_piece_outcomes(const fs::path& folder, const SweepResult& result, Sha
 
 void read_piece_outcomes(const fs::path& folder, const ShardPieceRecord& record, SweepResult& result) {
     const fs::path path = folder / record.file;
-    if (!fs::is_regular_file(path)) fail(path.string(), "is missing: the shard is not whole (sweep it again)");
+    if (!is_file(path)) fail(path.string(), "is missing: the shard is not whole (sweep it again)");
     const std::string bytes = read_file_bytes(path);
     if (bytes.size() != record.file_bytes)
         fail(path.string(), "has {} bytes where shard.json says {}: the file is damaged (sweep the shard again)", bytes.size(), record.file_bytes);
@@ -207,7 +208,7 @@ void write_shard_manifest(const fs::path& folder, const ShardManifest& m) {
 ShardManifest read_shard_manifest(const fs::path& folder) {
     const fs::path file = folder / kShardManifestFile;
     const std::string where = file.string();
-    if (!fs::is_regular_file(file)) fail(where, "is missing: {} is not a shard folder of `amhv sweep --shard`", folder.string());
+    if (!is_file(file)) fail(where, "is missing: {} is not a shard folder of `amhv sweep --shard`", folder.string());
     nlohmann::json json;
     try {
         json = nlohmann::json::parse(read_file_bytes(file));
@@ -223,9 +224,9 @@ ShardManifest read_shard_manifest(const fs::path& folder) {
         m.inputs = json.at("inputs").get<std::string>();
         m.voxel = json.at("sampling").at("voxel_m").get<double>();
         m.angle_step_deg = json.at("sampling").at("angle_step_deg").get<double>();
-        m.angles = json.at("sampling").at("angles").get<int>();
-        m.index = json.at("shard").at("index").get<int>();
-        m.count = json.at("shard").at("count").get<int>();
+        m.angles = json_integer<int>(json.at("sampling").at("angles"));
+        m.index = json_integer<int>(json.at("shard").at("index"));
+        m.count = json_integer<int>(json.at("shard").at("count"));
         m.backend = json.at("backend").get<std::string>();
         m.device = json.at("device").get<std::string>();
         for (const nlohmann::json& p : json.at("pieces")) m.pieces.push_back(piece_of(p));

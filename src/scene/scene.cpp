@@ -1,3 +1,4 @@
+#include "src/io/files.hpp"
 #include "src/scene/scene.hpp"
 
 #include <algorithm>
@@ -199,7 +200,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     if (auto root = t.string("files_root")) {
         if (bvh) t.error("files_root", t.get("files_root"), "only a mesh sequence names other files (materials, textures)");
         o.files_root = resolve(t.file(), *root);
-        if (!fs::is_directory(o.files_root)) t.error("files_root", t.get("files_root"), "'{}' is not a folder", o.files_root.string());
+        if (!is_folder(o.files_root)) t.error("files_root", t.get("files_root"), "'{}' is not a folder", o.files_root.string());
     }
     o.facing_deg = t.number("facing_deg", -360, 360);
     TableReader placement = t.table("placement");
@@ -211,7 +212,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     // The frames available.
     const toml::node* source_node = t.get(bvh ? "bvh" : "meshes");
     if (bvh) {
-        if (!fs::is_regular_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
+        if (!is_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
         if (auto tpose = t.string("tpose")) o.tpose = parse_tpose(*tpose, t.where("tpose", t.get("tpose")));
         if (auto body = t.string("body")) o.body = parse_body_kind(*body, t.where("body", t.get("body")));
         const std::optional<double> fps = t.number("fps", 1, 1000, false);
@@ -560,7 +561,7 @@ void read_truth(TableReader& top, Scene& scene) {
 }  // namespace
 
 Scene load_scene(const fs::path& file) {
-    if (!fs::is_regular_file(file)) fail(file.string(), "no such scene file");
+    if (!is_file(file)) fail(file.string(), "no such scene file");
     toml::table root;
     try {
         root = toml::parse_file(file.string());
