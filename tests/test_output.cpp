@@ -128,11 +128,20 @@ TEST(Output, ASecondRunIntoTheSameFolderIsRefusedWhileTheFirstWrites) {
     // partial marker.
     fs::create_directories(tmp.path() / ".out.partial-999997-0123456789abcdef");
     write_user_file(tmp.path() / ".out.partial-999996-0123456789abcdef" / StagedOutput::kMarker, "{\"amhv_out");
+    // Killed while writing a marker: markers are written under a temporary name and renamed, so the
+    // folder holds its staging marker and the temporary file (never a partial marker among outputs).
+    const std::string writing = "999995-0123456789abcdef";
+    write_user_file(tmp.path() / (".out.partial-" + writing) / StagedOutput::kMarker, "{\"amhv_output\": 2, \"staging\": \"" + writing + "\"}\n");
+    write_user_file(tmp.path() / (".out.partial-" + writing) / "mhv.json", "{}");
+    write_user_file(tmp.path() / (".out.partial-" + writing) / (std::string(StagedOutput::kMarker) + ".writing"), "{\"amhv_output\": 2, \"fol");
+    write_user_file(tmp.path() / ".out.partial-999994-0123456789abcdef" / (std::string(StagedOutput::kMarker) + ".writing"), "{\"amh");
     auto next = test::run_amhv(fmt::format("{} --out '{}'", mhv, out.string()));
     EXPECT_EQ(next.exit_code, 0) << next.output;
     EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + dead)));
     EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999997-0123456789abcdef"));
     EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999996-0123456789abcdef"));
+    EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + writing)));
+    EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999994-0123456789abcdef"));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-999998-0123456789abcdef" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-anything" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / (".out.partial-" + alive)));

@@ -143,6 +143,21 @@ bool is_amhv_output(const fs::path& folder) {
     return true;
 }
 
+namespace {
+
+// The marker's bytes under a temporary name, then renamed over it: a run killed while writing it
+// leaves the marker it had (or none) and at most the temporary file, never a partial marker in a
+// folder full of outputs, which no later run could tell for amhv's.
+void write_marker(const fs::path& folder, const std::string& text) {
+    const fs::path writing = folder / (std::string(StagedOutput::kMarker) + ".writing");
+    write_file(writing, text);
+    std::error_code ec;
+    fs::rename(writing, folder / StagedOutput::kMarker, ec);
+    if (ec) fail((folder / StagedOutput::kMarker).string(), "cannot write the output's marker ({})", ec.message());
+}
+
+}  // namespace
+
 void write_output_marker(const fs::path& folder) {
     std::vector<std::string> folders;
     std::map<std::string, std::uintmax_t> files;
@@ -156,7 +171,7 @@ void write_output_marker(const fs::path& folder) {
                        {"note", "this folder was written by amhv; the next amhv run into it replaces it whole if it holds only what is listed here"},
                        {"folders", folders},
                        {"files", list}};
-    write_file(folder / StagedOutput::kMarker, json.dump(1) + "\n");
+    write_marker(folder, json.dump(1) + "\n");
 }
 
 bool is_within(const fs::path& path, const fs::path& folder) {
@@ -191,7 +206,7 @@ StagedOutput::StagedOutput(fs::path target, const std::vector<fs::path>& inputs)
             }
             active().outputs.emplace_back(staging_, lock_path_);
         }
-        write_file(staging_ / kMarker, Json({{"amhv_output", 2}, {"staging", run}}).dump() + "\n");
+        write_marker(staging_, Json({{"amhv_output", 2}, {"staging", run}}).dump() + "\n");
     } catch (...) {
         release();  // the lock and the staging folder go; nothing else was made
         throw;
@@ -275,10 +290,12 @@ void StagedOutput::remove_stale_staging() const {
         const bool ours = (marker.kind == OutputMarker::Kind::Staging && marker.run == m[1].str() + "-" + m[2].str()) ||
                           (marker.kind == OutputMarker::Kind::Finished && is_amhv_output(entry.path()));
         // A run killed between creating its staging folder and finishing its marker leaves the
-        // folder empty or holding only a partial marker: nothing of anyone's to lose.
+        // folder empty or holding only a partial marker (or its temporary file): nothing of anyone's to lose.
         bool unstarted = marker.kind == OutputMarker::Kind::None || marker.kind == OutputMarker::Kind::Unknown;
-        for (const auto& inside : fs::directory_iterator(entry.path(), ec))
-            unstarted = unstarted && inside.path().filename() == kMarker && fs::is_regular_file(inside.symlink_status(ec));
+        for (const auto& inside : fs::directory_iterator(entry.path(), ec)) {
+            const std::string inner = inside.path().filename().string();
+            unstarted = unstarted && (inner == kMarker || inner == std::string(kMarker) + ".writing") && fs::is_regular_file(inside.symlink_status(ec));
+        }
         if (ours || (unstarted && !ec)) stale.push_back(entry.path());
     }
     for (const fs::path& p : stale) fs::remove_all(p, ec);
