@@ -145,11 +145,14 @@ bool is_amhv_output(const fs::path& folder) {
 
 namespace {
 
+// Where a marker is written before it is renamed into place.
+const std::string kMarkerWriting = std::string(StagedOutput::kMarker) + ".writing";
+
 // The marker's bytes under a temporary name, then renamed over it: a run killed while writing it
 // leaves the marker it had (or none) and at most the temporary file, never a partial marker in a
 // folder full of outputs, which no later run could tell for amhv's.
 void write_marker(const fs::path& folder, const std::string& text) {
-    const fs::path writing = folder / (std::string(StagedOutput::kMarker) + ".writing");
+    const fs::path writing = folder / kMarkerWriting;
     write_file(writing, text);
     std::error_code ec;
     fs::rename(writing, folder / StagedOutput::kMarker, ec);
@@ -294,7 +297,7 @@ void StagedOutput::remove_stale_staging() const {
         bool unstarted = marker.kind == OutputMarker::Kind::None || marker.kind == OutputMarker::Kind::Unknown;
         for (const auto& inside : fs::directory_iterator(entry.path(), ec)) {
             const std::string inner = inside.path().filename().string();
-            unstarted = unstarted && (inner == kMarker || inner == std::string(kMarker) + ".writing") && fs::is_regular_file(inside.symlink_status(ec));
+            unstarted = unstarted && (inner == kMarker || inner == kMarkerWriting) && fs::is_regular_file(inside.symlink_status(ec));
         }
         if (ours || (unstarted && !ec)) stale.push_back(entry.path());
     }

@@ -63,7 +63,8 @@ const nlohmann::json& matching_entry(const nlohmann::json& segments, const KeySe
     for (const auto& item : segments)
         if (json_integer<int>(item.at("index")) == key.index) s = &item;
     if (!s) fail(where, "has no key segment {}: sweep every segment (no --segment) before --from-sweep", key.index);
-    if (s->at("frames_a").get<std::array<int, 2>>() != key.a || s->at("frames_b").get<std::array<int, 2>>() != key.b ||
+    auto frames = [](const nlohmann::json& j) { return std::array<int, 2>{json_integer<int>(j.at(0)), json_integer<int>(j.at(1))}; };
+    if (frames(s->at("frames_a")) != key.a || frames(s->at("frames_b")) != key.b ||
         s->at("type").get<std::string>() != key.type.name() || json_integer<int>(s->at("tolerance")) != key.tolerance ||
         s->at("visibility").at("enabled").get<bool>() != key.visibility.enabled ||
         s->at("visibility").at("half_angle_deg").get<double>() != key.visibility.half_angle_deg ||
