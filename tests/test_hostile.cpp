@@ -271,6 +271,8 @@ std::vector<Hostile> mesh_cases() {
          mhv("m/f_%04d.off"), "f_0000.off:3: vertex 0 has 1 values after its coordinates where the OFF form holds 0"},
         {"OffCountsWithoutEdges", {{"m/f_0000.off", "OFF\n3 1  \n0 0 0\n1 0 0\n0 1 0\n3 0 2 1\n 3555555555555555555555555555555\n01\n"}},
          mhv("m/f_%04d.off"), "f_0000.off:2: malformed OFF: expected the vertex, face and edge counts (three numbers) on this line"},
+        {"OffComment", {{"m/f_0000.off", "OFF\n# 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"}}, mhv("m/f_%04d.off"),
+         "f_0000.off:2: malformed OFF: a comment (#), which the reader does not take"},
         {"OffFaceNegativeCount", {{"m/f_0000.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n-3 1 2 3\n"}}, mhv("m/f_%04d.off"),
          "f_0000.off:7: face 0 does not start with its number of corners (3 or more)"},
         {"PlyListCountFloat", {{"m/f_0000.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "src/body/shapes.hpp"
+#include "src/core/distance.hpp"
 #include "src/edit/natural.hpp"
 #include "host/reference/voxelise_reference.hpp"
 #include "src/scene/scene.hpp"
@@ -172,7 +173,7 @@ TEST(Natural, DistanceTransformMatchesBruteForce) {
                 if (site) sites.push_back({x, y, z});
             }
     ASSERT_FALSE(sites.empty());
-    detail::distance_transform(f, dims);
+    squared_distance_transform(f, dims);
     for (int z = 0; z < dims[2]; ++z)
         for (int y = 0; y < dims[1]; ++y)
             for (int x = 0; x < dims[0]; ++x) {

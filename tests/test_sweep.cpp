@@ -524,6 +524,55 @@ TEST(Sweep, ProbeGapMatchesEveryPair) {
     EXPECT_EQ(detail::smallest_squared_gap(none, one), std::numeric_limits<std::int64_t>::max());
 }
 
+// The probe's depths on two flat hands (boxes 10 cm high and wide) that meet end to end: B moved k
+// voxels into A makes k more layers of shared voxels, so the depth grows by exactly k voxels, read
+// as the interest parts' merge when the hands are the interest parts and as another pair's
+// interpenetration when they are not; apart, both read 0.
+TEST(Sweep, ProbeDepthGrowsByTheVoxelsMovedIntoTheOther) {
+    const double h = 0.01;
+    auto performer = [&](double side, bool hands_are_interest) {
+        Performer p;
+        for (int f = 0; f < 2; ++f) {
+            TriangleMesh body = shapes::box(Vec3(side * 0.40, -0.15, 0.6).cwiseMin(Vec3(side * 0.12, 0.15, 1.4)),
+                                            Vec3(side * 0.40, -0.15, 0.6).cwiseMax(Vec3(side * 0.12, 0.15, 1.4)));
+            const TriangleMesh hand = shapes::box(Vec3(side * 0.12, -0.05, 1.0).cwiseMin(Vec3(-side * 0.0049, 0.05, 1.1)),
+                                                  Vec3(side * 0.12, -0.05, 1.0).cwiseMax(Vec3(-side * 0.0049, 0.05, 1.1)));
+            body.append(hand);
+            const TriangleMesh part = hands_are_interest ? hand : shapes::sphere(Vec3(side * 0.26, 0, 1.45), 0.04, 6, 10);
+            if (!hands_are_interest) body.append(part);
+            p.body.push_back(frame_of(body, f));
+            p.part.push_back(frame_of(part, f));
+        }
+        return p;
+    };
+    int first = 0;  // found with the hands as interest parts (their gap), kept for the other pass
+    for (const bool interest : {true, false}) {
+        const Performer a = performer(-1, interest), b = performer(1, interest);
+        const SweepProblem problem = problem_of(object_from("A", a, h), object_from("B", b, h), "0&0b", h, 90);
+        const PoseProber prober(problem);
+        const Eigen::Vector2d s = (problem.b.root - problem.a.root).head<2>() / h;
+        const int i0 = int(std::lround(s.x())), j0 = int(std::lround(s.y()));
+        auto deepest = [](const std::vector<double>& d) { return *std::max_element(d.begin(), d.end()); };
+        // The first pose, moving B into A, where the hands share a voxel: one layer, depth 0.
+        auto touches = [&](int i) {
+            const std::vector<double> gap = prober.probe(i, j0, 0, 0).gap_m;
+            return *std::min_element(gap.begin(), gap.end()) == 0;
+        };
+        if (interest)
+            for (first = i0 + 3; first > i0 - 6 && !touches(first);) --first;
+        ASSERT_GT(first, i0 - 6);
+        const PoseProbe apart = prober.probe(first + 2, j0, 0, 0);
+        EXPECT_EQ(deepest(apart.contact_depth_m) + deepest(apart.other_depth_m), 0.0) << interest;
+        for (int k = 0; k <= 3; ++k) {
+            const PoseProbe in = prober.probe(first - k, j0, 0, 0);
+            const auto& depth = interest ? in.contact_depth_m : in.other_depth_m;
+            const auto& none = interest ? in.other_depth_m : in.contact_depth_m;
+            EXPECT_NEAR(deepest(depth), k * h, 1e-9) << interest << " " << k;
+            EXPECT_EQ(deepest(none), 0.0) << interest << " " << k;
+        }
+    }
+}
+
 // Real hands part: two hands that touch for 7 frames and are 5 cm apart for the last 3. At the
 // true pose 0&0 (a) rejects them; 7 of 10 contact frames or a 7 cm contact tolerance accept them,
 // and 8 frames or a 2 cm tolerance still do not. B's hand is 3 cm lower: z_range finds it raised.

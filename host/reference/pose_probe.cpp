@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "host/reference/pose_checks.hpp"
 #include "src/core/angles.hpp"
+#include "src/core/distance.hpp"
 
 namespace amhv {
 
@@ -30,11 +32,11 @@ void probe_dictionary(const SweepProblem& p, const ContactPairs& contact, PosePr
     out.passes[1] = out.dictionary_violations == 0;
 }
 
-// Per frame, the smallest distance between the centres of a voxel of A's interest part and one of
-// B's at pose (i, j, k, l) (PoseProbe::gap_m). B's voxels under A's lattice are found by pulling
-// the columns of a box around where the pose puts them.
-std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup, int i, int j, int k, int l) {
-    const Box3 bounds = summarise(p.b.interest).bounds;
+// B's occupied voxels of `volume` under A's lattice at the pose, with their voxels in B's grid: the
+// columns of a box around where the pose puts B's volume, pulled.
+std::vector<std::pair<LatticeVoxel, std::size_t>> pull_b(const SweepProblem& p, const PoseLookup& lookup, const BVolume& volume, int i, int j,
+                                                         int k, int l) {
+    const Box3 bounds = summarise(volume.volume).bounds;
     const double h = p.voxel, theta = angles::radians(p.angle_deg(k));
     const Eigen::Rotation2Dd turn(theta);
     Box3 moved;
@@ -43,15 +45,22 @@ std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, con
         const Eigen::Vector2d at = turn * (corner - p.b.root.head<2>()) + p.a.root.head<2>() + Eigen::Vector2d(i * h, j * h);
         moved.extend(Vec3(at.x(), at.y(), 0));
     }
-    const VoxelGrid& gb = p.b.interest.grid();
+    const VoxelGrid& gb = volume.volume.grid();
     const std::int64_t z_first = gb.lattice_origin()[2] + l, z_last = z_first + gb.dims[2] - 1;
     std::vector<std::pair<LatticeVoxel, std::size_t>> pulled;  // A lattice voxel, B voxel
     for (std::int64_t gy = std::int64_t(std::floor(moved.min.y() / h)) - 2; gy <= std::int64_t(std::ceil(moved.max.y() / h)) + 2; ++gy)
         for (std::int64_t gx = std::int64_t(std::floor(moved.min.x() / h)) - 2; gx <= std::int64_t(std::ceil(moved.max.x() / h)) + 2; ++gx)
             for (std::int64_t gz = z_first; gz <= z_last; ++gz) {
                 const LatticeVoxel u{0, gx, gy, gz};
-                if (auto vb = lookup(s.b.interest, u); vb && s.b.interest.any(*vb)) pulled.push_back({u, *vb});
+                if (auto vb = lookup(volume, u); vb && volume.any(*vb)) pulled.push_back({u, *vb});
             }
+    return pulled;
+}
+
+// Per frame, the smallest distance between the centres of a voxel of A's interest part and one of
+// B's at pose (i, j, k, l) (PoseProbe::gap_m).
+std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup, int i, int j, int k, int l) {
+    const auto pulled = pull_b(p, lookup, s.b.interest, i, j, k, l);
     std::vector<double> gap_m(std::size_t(p.frames()), std::numeric_limits<double>::infinity());
     std::vector<detail::LatticePoint> at_a, at_b;
     for (int t = 0; t < p.frames(); ++t) {
@@ -61,9 +70,72 @@ std::vector<double> interest_gaps(const SweepProblem& p, const PoseSides& s, con
         for (const auto& [w, vb] : pulled)
             if (p.b.interest.occupied(vb, t)) at_b.push_back({w.gx, w.gy, w.gz});
         const std::int64_t best = detail::smallest_squared_gap(at_a, at_b);
-        if (best != std::numeric_limits<std::int64_t>::max()) gap_m[std::size_t(t)] = h * std::sqrt(double(best));
+        if (best != std::numeric_limits<std::int64_t>::max()) gap_m[std::size_t(t)] = p.voxel * std::sqrt(double(best));
     }
     return gap_m;
+}
+
+// Whether A's `volume` holds lattice point (gx, gy, gz) at frame t.
+bool a_holds(const Amhv& volume, std::int64_t gx, std::int64_t gy, std::int64_t gz, int t) {
+    const VoxelGrid& g = volume.grid();
+    const auto o = g.lattice_origin();
+    const std::int64_t x = gx - o[0], y = gy - o[1], z = gz - o[2];
+    if (x < 0 || y < 0 || z < 0 || x >= g.dims[0] || y >= g.dims[1] || z >= g.dims[2]) return false;
+    return volume.occupied(g.index(int(x), int(y), int(z)), t);
+}
+
+// One frame's interpenetration (PoseProbe::contact_depth_m, other_depth_m) from the voxels where
+// the whole bodies overlap: each voxel's depth is d_A + d_B - 2 voxels, d_X the distance from its
+// centre to the nearest voxel centre outside X's whole body (exact distance transforms over a box
+// around the overlap, widened until every distance found is nearer than the box's edge).
+std::pair<double, double> frame_depths(const SweepProblem& p, const BSide& b, const PoseLookup& lookup, const std::vector<detail::LatticePoint>& overlap,
+                                       int t) {
+    detail::LatticePoint lo = overlap[0], hi = overlap[0];
+    for (const auto& q : overlap)
+        for (std::size_t c = 0; c < 3; ++c) lo[c] = std::min(lo[c], q[c]), hi[c] = std::max(hi[c], q[c]);
+    for (std::int64_t margin = 4;; margin *= 2) {
+        const std::array<int, 3> dims{int(hi[0] - lo[0] + 1 + 2 * margin), int(hi[1] - lo[1] + 1 + 2 * margin), int(hi[2] - lo[2] + 1 + 2 * margin)};
+        const std::size_t count = std::size_t(dims[0]) * std::size_t(dims[1]) * std::size_t(dims[2]);
+        std::vector<double> fa(count), fb(count);
+        auto at = [&](std::int64_t gx, std::int64_t gy, std::int64_t gz) {
+            return std::size_t(((gz - lo[2] + margin) * dims[1] + (gy - lo[1] + margin)) * dims[0] + (gx - lo[0] + margin));
+        };
+        for (std::int64_t gz = lo[2] - margin; gz <= hi[2] + margin; ++gz)
+            for (std::int64_t gy = lo[1] - margin; gy <= hi[1] + margin; ++gy)
+                for (std::int64_t gx = lo[0] - margin; gx <= hi[0] + margin; ++gx) {
+                    const auto vb = lookup(b.whole, LatticeVoxel{0, gx, gy, gz});
+                    fa[at(gx, gy, gz)] = a_holds(p.a.whole, gx, gy, gz, t) ? 1e30 : 0;
+                    fb[at(gx, gy, gz)] = vb && p.b.whole.occupied(*vb, t) ? 1e30 : 0;
+                }
+        squared_distance_transform(fa, dims);
+        squared_distance_transform(fb, dims);
+        double contact = 0, other = 0, farthest = 0;
+        for (const auto& q : overlap) {
+            const double da = std::sqrt(fa[at(q[0], q[1], q[2])]), db = std::sqrt(fb[at(q[0], q[1], q[2])]);
+            farthest = std::max({farthest, da, db});
+            const auto vb = lookup(b.interest, LatticeVoxel{0, q[0], q[1], q[2]});
+            const bool interest = a_holds(p.a.interest, q[0], q[1], q[2], t) && vb && p.b.interest.occupied(*vb, t);
+            (interest ? contact : other) = std::max(interest ? contact : other, std::max(0.0, da + db - 2));
+        }
+        // A voxel outside the box is more than `margin` voxels from every overlap voxel.
+        if (farthest <= double(margin) || margin > 4096) return {contact * p.voxel, other * p.voxel};
+    }
+}
+
+// Per frame, how deep the bodies interpenetrate at pose (i, j, k, l): the interest parts' merge
+// and the deepest overlap of any other parts (PoseProbe::contact_depth_m, other_depth_m).
+void depths(const SweepProblem& p, const PoseSides& s, const PoseLookup& lookup, int i, int j, int k, int l, PoseProbe& out) {
+    const auto pulled = pull_b(p, lookup, s.b.whole, i, j, k, l);
+    out.contact_depth_m.assign(std::size_t(p.frames()), 0.0);
+    out.other_depth_m.assign(std::size_t(p.frames()), 0.0);
+    std::vector<detail::LatticePoint> overlap;
+    for (int t = 0; t < p.frames(); ++t) {
+        overlap.clear();
+        for (const auto& [w, vb] : pulled)
+            if (p.b.whole.occupied(vb, t) && a_holds(p.a.whole, w.gx, w.gy, w.gz, t)) overlap.push_back({w.gx, w.gy, w.gz});
+        if (overlap.empty()) continue;
+        std::tie(out.contact_depth_m[std::size_t(t)], out.other_depth_m[std::size_t(t)]) = frame_depths(p, s.b, lookup, overlap, t);
+    }
 }
 
 }  // namespace
@@ -140,6 +212,7 @@ PoseProbe PoseProber::probe(int i, int j, int k, int l, bool gaps) const {
     if (!gaps) return out;
 
     out.gap_m = interest_gaps(p, s, lookup, i, j, k, l);
+    depths(p, s, lookup, i, j, k, l, out);
     return out;
 }
 

@@ -33,6 +33,12 @@ struct PoseProbe {
     // one of B's (moved), in metres; 0 where they share a voxel. A contact_tolerance of at least
     // this much (beyond the one swept) makes them touch at that frame. Infinity: a part is empty.
     std::vector<double> gap_m;
+    // Per frame, how deep the bodies interpenetrate (docs/scenes.md, `amhv probe`), in metres:
+    // where both whole bodies hold a voxel, d_A + d_B - 2 voxels (d_X: from the voxel's centre to
+    // the nearest voxel centre outside X's whole body), so that bodies sharing one layer of voxels
+    // (surfaces within a voxel) read 0 and each further layer one voxel. `contact_depth_m`: the
+    // deepest such voxel of both interest parts; `other_depth_m`: of any other pair of parts.
+    std::vector<double> contact_depth_m, other_depth_m;
 
     // The constraint that rejects the pose ("" for a solution) and the frames it fails on (every
     // frame for the constraints that are not decided frame by frame).
@@ -45,7 +51,7 @@ class PoseProber {
 public:
     explicit PoseProber(const SweepProblem& problem);
     ~PoseProber();
-    // Pose (i h, j h, l h, k dtheta); `gaps`: also the per-frame gaps (the slowest part).
+    // Pose (i h, j h, l h, k dtheta); `gaps`: also the per-frame gaps and depths (the slowest part).
     PoseProbe probe(int i, int j, int k, int l, bool gaps = true) const;
 
 private:

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "src/core/angles.hpp"
+#include "src/core/distance.hpp"
 #include "src/core/parallel.hpp"
 #include "src/scene/interest.hpp"
 
@@ -43,61 +44,7 @@ std::vector<Vec3> sample_points(const TriangleMesh& mesh, std::size_t count) {
     return out;
 }
 
-// One line of the squared distance transform: d[q] = min_p (q - p)^2 + f[p].
-void transform_line(std::vector<double>& f, std::vector<double>& d, std::vector<int>& v, std::vector<double>& z) {
-    const int n = int(f.size());
-    int k = 0;
-    v[0] = 0;
-    z[0] = -std::numeric_limits<double>::infinity();
-    z[1] = std::numeric_limits<double>::infinity();
-    // Where the parabola rooted at q meets the one rooted at v[k].
-    auto meet = [&](int q) {
-        const int p = v[std::size_t(k)];
-        return ((f[std::size_t(q)] + double(q) * q) - (f[std::size_t(p)] + double(p) * p)) / (2.0 * q - 2.0 * p);
-    };
-    for (int q = 1; q < n; ++q) {
-        double s = meet(q);
-        while (s <= z[std::size_t(k)]) {
-            --k;
-            s = meet(q);
-        }
-        ++k;
-        v[std::size_t(k)] = q;
-        z[std::size_t(k)] = s;
-        z[std::size_t(k) + 1] = std::numeric_limits<double>::infinity();
-    }
-    k = 0;
-    for (int q = 0; q < n; ++q) {
-        while (z[std::size_t(k) + 1] < q) ++k;
-        d[std::size_t(q)] = square(q - v[std::size_t(k)]) + f[std::size_t(v[std::size_t(k)])];
-    }
-}
-
 }  // namespace
-
-namespace detail {
-
-void distance_transform(std::vector<double>& f, const std::array<int, 3>& dims) {
-    const std::size_t nx = std::size_t(dims[0]), ny = std::size_t(dims[1]), nz = std::size_t(dims[2]);
-    const std::array<std::size_t, 3> stride{1, nx, nx * ny};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::size_t n = std::size_t(dims[std::size_t(axis)]);
-        std::vector<double> line(n), out(n), z(n + 1);
-        std::vector<int> v(n);
-        for (std::size_t c = 0; c < nz; ++c)
-            for (std::size_t b = 0; b < ny; ++b)
-                for (std::size_t a = 0; a < nx; ++a) {
-                    const std::size_t at = a + b * nx + c * nx * ny;
-                    // Each line once: from its first voxel along the axis.
-                    if ((axis == 0 && a != 0) || (axis == 1 && b != 0) || (axis == 2 && c != 0)) continue;
-                    for (std::size_t q = 0; q < n; ++q) line[q] = f[at + q * stride[std::size_t(axis)]];
-                    transform_line(line, out, v, z);
-                    for (std::size_t q = 0; q < n; ++q) f[at + q * stride[std::size_t(axis)]] = out[q];
-                }
-    }
-}
-
-}  // namespace detail
 
 double NaturalTerms::cost() const {
     const double gaze_scale = 1.0 - std::cos(kNaturalGazeHalfAngleDeg * std::numbers::pi / 180.0);
@@ -199,7 +146,7 @@ void NaturalScorer::prepare_depth(const KeySegment& key, ObjectSource& a, Object
                     const bool inside = (volume.plane(0)[stacked.index(x, y, z)] >> t) & 1u;
                     f[grids[t].index(x, y, z)] = inside ? 1e30 : 0.0;
                 }
-        detail::distance_transform(f, d);
+        squared_distance_transform(f, d);
         field.depth.resize(f.size());
         for (std::size_t v = 0; v < f.size(); ++v) field.depth[v] = f[v] > 0 ? float((std::sqrt(f[v]) - 0.5) * h_) : 0.0f;
         fields_.push_back(std::move(field));

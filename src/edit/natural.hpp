@@ -83,11 +83,4 @@ private:
     std::size_t points_ = kNaturalPoints;
 };
 
-namespace detail {
-// Exact squared Euclidean distance transform (Felzenszwalb and Huttenlocher) of a 3D grid in voxels:
-// `f` holds 0 at the sites and a large value elsewhere; on return, the squared distance to the
-// nearest site. Exposed for its test against brute force.
-void distance_transform(std::vector<double>& f, const std::array<int, 3>& dims);
-}  // namespace detail
-
 }  // namespace amhv

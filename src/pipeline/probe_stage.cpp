@@ -48,6 +48,15 @@ std::string dictionary_line(const KeySegment& segment, const PoseProbe& p) {
     return fmt::format("{} contact voxels break the {} rule", p.dictionary_violations, segment.type.name());
 }
 
+// The deepest interpenetration over the frames, of the interest parts and of any other parts.
+std::string depth_line(const PoseProbe& p) {
+    auto deepest = [](const std::vector<double>& d) { return int(std::max_element(d.begin(), d.end()) - d.begin()); };
+    if (p.contact_depth_m.empty()) return {};
+    const int c = deepest(p.contact_depth_m), o = deepest(p.other_depth_m);
+    return fmt::format("depth: the interest parts merge up to {:.1f} mm (frame {}); other parts interpenetrate up to {:.1f} mm (frame {})\n",
+                       p.contact_depth_m[std::size_t(c)] * 1000, c, p.other_depth_m[std::size_t(o)] * 1000, o);
+}
+
 }  // namespace
 
 ProbeAnswer probe_scene(const Scene& scene, const ProbeRequest& request, Voxeliser& voxeliser) {
@@ -109,11 +118,13 @@ std::string probe_table(const ProbeAnswer& answer, int frames) {
     else
         row("visibility", p.passes[3], fmt::format("A sees B on {} frames, B sees A on {} (each needs {})", std::count(p.a_sees_b.begin(), p.a_sees_b.end(), 1),
                                                   std::count(p.b_sees_a.begin(), p.b_sees_a.end(), 1), p.visibility_needed));
-    out += "frame   gap_mm  fidelity_voxels  touching  A_sees_B  B_sees_A\n";
+    out += depth_line(p);
+    out += "frame   gap_mm  merge_mm  other_mm  fidelity_voxels  touching  A_sees_B  B_sees_A\n";
     for (int t = 0; t < frames; ++t) {
         const double gap = p.gap_m[std::size_t(t)];
         const bool per_frame = p.a_sees_b.size() > 1;
-        out += fmt::format("{:>5} {:>8} {:>16} {:>9} {:>9} {:>9}\n", t, std::isinf(gap) ? std::string("-") : fmt::format("{:.1f}", gap * 1000),
+        out += fmt::format("{:>5} {:>8} {:>9.1f} {:>9.1f} {:>16} {:>9} {:>9} {:>9}\n", t, std::isinf(gap) ? std::string("-") : fmt::format("{:.1f}", gap * 1000),
+                           p.contact_depth_m[std::size_t(t)] * 1000, p.other_depth_m[std::size_t(t)] * 1000,
                            p.fidelity_voxels[std::size_t(t)], p.touching.empty() ? "-" : yes_no(p.touching[std::size_t(t)]),
                            per_frame ? yes_no(p.a_sees_b[std::size_t(t)]) : "-", per_frame ? yes_no(p.b_sees_a[std::size_t(t)]) : "-");
     }
@@ -139,6 +150,11 @@ results::Json probe_json(const ProbeAnswer& answer) {
     results::Json gaps = results::Json::array();
     for (double g : p.gap_m) gaps.push_back(std::isinf(g) ? results::Json(nullptr) : results::Json(g * 1000));
     json["gap_mm"] = gaps;
+    results::Json merge = results::Json::array(), other = results::Json::array();
+    for (double d : p.contact_depth_m) merge.push_back(d * 1000);
+    for (double d : p.other_depth_m) other.push_back(d * 1000);
+    json["merge_mm"] = merge;
+    json["other_depth_mm"] = other;
     results::Json neighbours = results::Json::array();
     for (const Solution& n : answer.neighbours_in_group) neighbours.push_back({{"x", n.x}, {"y", n.y}, {"z", n.z}, {"theta_deg", n.theta_deg}});
     json["neighbours_in_group"] = neighbours;
