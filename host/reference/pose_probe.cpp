@@ -115,7 +115,8 @@ std::pair<double, double> frame_depths(const SweepProblem& p, const BSide& b, co
             farthest = std::max({farthest, da, db});
             const auto vb = lookup(b.interest, LatticeVoxel{0, q[0], q[1], q[2]});
             const bool interest = a_holds(p.a.interest, q[0], q[1], q[2], t) && vb && p.b.interest.occupied(*vb, t);
-            (interest ? contact : other) = std::max(interest ? contact : other, std::max(0.0, da + db - 2));
+            double& deepest = interest ? contact : other;
+            deepest = std::max(deepest, da + db - 2);
         }
         // A voxel outside the box is more than `margin` voxels from every overlap voxel.
         if (farthest <= double(margin) || margin > 4096) return {contact * p.voxel, other * p.voxel};

@@ -37,7 +37,8 @@ struct PoseProbe {
     // where both whole bodies hold a voxel, d_A + d_B - 2 voxels (d_X: from the voxel's centre to
     // the nearest voxel centre outside X's whole body), so that bodies sharing one layer of voxels
     // (surfaces within a voxel) read 0 and each further layer one voxel. `contact_depth_m`: the
-    // deepest such voxel of both interest parts; `other_depth_m`: of any other pair of parts.
+    // deepest such voxel of both interest parts (A's as the sweep holds it: grown by a
+    // contact_tolerance); `other_depth_m`: of any other pair of parts.
     std::vector<double> contact_depth_m, other_depth_m;
 
     // The constraint that rejects the pose ("" for a solution) and the frames it fails on (every

@@ -60,5 +60,4 @@ void squared_distance_transform(std::vector<double>& f, const std::array<int, 3>
     }
 }
 
-
 }  // namespace amhv
