@@ -154,7 +154,7 @@ results::Json probe_json(const ProbeAnswer& answer) {
     for (double d : p.contact_depth_m) merge.push_back(d * 1000);
     for (double d : p.other_depth_m) other.push_back(d * 1000);
     json["merge_mm"] = merge;
-    json["other_depth_mm"] = other;
+    json["other_mm"] = other;
     results::Json neighbours = results::Json::array();
     for (const Solution& n : answer.neighbours_in_group) neighbours.push_back({{"x", n.x}, {"y", n.y}, {"z", n.z}, {"theta_deg", n.theta_deg}});
     json["neighbours_in_group"] = neighbours;

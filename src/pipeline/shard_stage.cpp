@@ -150,7 +150,12 @@ std::string inputs_fingerprint(const Scene& scene) {
     const fs::path folder = scene.file.parent_path();
     for (auto input = inputs.begin() + 1; input != inputs.end(); ++input) {  // the TOML itself is the scene hash
         const std::string name = fs::absolute(*input).lexically_relative(folder).string();
-        if (is_file(*input)) text += fmt::format("{} {} {:08x}\n", name, fs::file_size(*input), file_crc(*input));
+        if (is_file(*input)) {
+            std::error_code error;  // a file removed or replaced since is_file: one clear line, not an exception
+            const std::uintmax_t size = fs::file_size(*input, error);
+            if (error) fail(input->string(), "cannot read its size: {}", error.message());
+            text += fmt::format("{} {} {:08x}\n", name, size, file_crc(*input));
+        }
         else if (is_folder(*input)) text += fmt::format("{}/ {}\n", name, folder_listing(*input));
     }
     return fmt::format("{:08x}", std::uint32_t(crc32(crc32(0, nullptr, 0), reinterpret_cast<const Bytef*>(text.data()), uInt(text.size()))));
