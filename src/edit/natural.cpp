@@ -1,6 +1,7 @@
 #include "src/edit/natural.hpp"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -181,8 +182,15 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
         if (!fields_.empty()) {
             g.cells.resize(n);
             const Vec3 at_a(root_a_.x(), root_a_.y(), 0);
+            g.bounds.assign(n, {INT_MAX, INT_MAX, INT_MAX, INT_MIN, INT_MIN, INT_MIN});
             for (std::size_t t = 0; t < n; ++t)
-                for (const Vec3& p : points[t]) g.cells[t].push_back(fields_[t].cell(turn(p - planar_b) + at_a));
+                for (const Vec3& p : points[t]) {
+                    const auto cell = g.cells[t].emplace_back(fields_[t].cell(turn(p - planar_b) + at_a));
+                    for (int axis = 0; axis < 3; ++axis) {
+                        g.bounds[t][std::size_t(axis)] = std::min(g.bounds[t][std::size_t(axis)], cell[std::size_t(axis)]);
+                        g.bounds[t][std::size_t(axis + 3)] = std::max(g.bounds[t][std::size_t(axis + 3)], cell[std::size_t(axis)]);
+                    }
+                }
         }
         if (centroids)
             for (const auto& centroid : centroid_b) g.centroids.push_back(turn(*centroid - planar_b));
@@ -208,7 +216,12 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
     double sum = 0;
     for (std::size_t t = 0; t < g.eyes.size(); ++t) {
         const Vec3 eye_b = g.eyes[t] + offset;
-        double a = away(gazes_a_[t], eyes_a_[t], eye_b), b = away(g.gazes[t], eye_b, eyes_a_[t]);
+        // Each head toward the other's eye: one direction and one length for both (a - b is
+        // exactly -(b - a), so this is away() of each, bit for bit).
+        const Vec3 u = eye_b - eyes_a_[t];
+        const double length = u.norm();
+        double a = length < 1e-9 ? 0.0 : 1.0 - gazes_a_[t].dot(u) / length;
+        double b = length < 1e-9 ? 0.0 : 1.0 - g.gazes[t].dot(-u) / length;
         if (!g.centroids.empty()) {
             const Vec3 contact = 0.5 * (centroids_a_[t] + g.centroids[t] + offset);
             a = std::min(a, away(gazes_a_[t], eyes_a_[t], contact));
@@ -222,6 +235,15 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
 double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
     double sum = 0;
     for (std::size_t t = 0; t < g.cells.size(); ++t) {
+        // Points whose box, moved by the offset, misses A's grid all read 0 there: skip them.
+        if (g.cells[t].empty()) continue;
+        const auto& box = g.bounds[t];
+        const auto& dims = fields_[t].grid.dims;
+        const int move[3] = {pose.i, pose.j, pose.l};
+        bool apart = false;
+        for (std::size_t axis = 0; axis < 3 && !apart; ++axis)
+            apart = box[axis + 3] + move[axis] < 0 || box[axis] + move[axis] >= dims[axis];
+        if (apart) continue;
         double deepest = 0;
         for (const auto& c : g.cells[t]) deepest = std::max(deepest, fields_[t].at(c[0] + pose.i, c[1] + pose.j, c[2] + pose.l));
         sum += deepest;
