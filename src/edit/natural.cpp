@@ -1,7 +1,6 @@
 #include "src/edit/natural.hpp"
 
 #include <algorithm>
-#include <climits>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -182,14 +181,11 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
         if (!fields_.empty()) {
             g.cells.resize(n);
             const Vec3 at_a(root_a_.x(), root_a_.y(), 0);
-            g.bounds.assign(n, {INT_MAX, INT_MAX, INT_MAX, INT_MIN, INT_MIN, INT_MIN});
+            g.bounds.resize(n);  // empty boxes
             for (std::size_t t = 0; t < n; ++t)
                 for (const Vec3& p : points[t]) {
                     const auto cell = g.cells[t].emplace_back(fields_[t].cell(turn(p - planar_b) + at_a));
-                    for (int axis = 0; axis < 3; ++axis) {
-                        g.bounds[t][std::size_t(axis)] = std::min(g.bounds[t][std::size_t(axis)], cell[std::size_t(axis)]);
-                        g.bounds[t][std::size_t(axis + 3)] = std::max(g.bounds[t][std::size_t(axis + 3)], cell[std::size_t(axis)]);
-                    }
+                    g.bounds[t].extend(Eigen::Vector3i(cell[0], cell[1], cell[2]));
                 }
         }
         if (centroids)
@@ -208,10 +204,10 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
 double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
     // 1 - cos of the angle between unit `gaze` and the direction from `from` to `to` (0 when
     // they coincide: nothing to look away from).
-    auto away = [](const Vec3& gaze, const Vec3& from, const Vec3& to) {
+    auto along = [](const Vec3& gaze, const Vec3& u, double length) { return length < 1e-9 ? 0.0 : 1.0 - gaze.dot(u) / length; };
+    auto away = [&](const Vec3& gaze, const Vec3& from, const Vec3& to) {
         const Vec3 u = to - from;
-        const double length = u.norm();
-        return length < 1e-9 ? 0.0 : 1.0 - gaze.dot(u) / length;
+        return along(gaze, u, u.norm());
     };
     double sum = 0;
     for (std::size_t t = 0; t < g.eyes.size(); ++t) {
@@ -220,8 +216,7 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
         // exactly -(b - a), so this is away() of each, bit for bit).
         const Vec3 u = eye_b - eyes_a_[t];
         const double length = u.norm();
-        double a = length < 1e-9 ? 0.0 : 1.0 - gazes_a_[t].dot(u) / length;
-        double b = length < 1e-9 ? 0.0 : 1.0 - g.gazes[t].dot(-u) / length;
+        double a = along(gazes_a_[t], u, length), b = along(g.gazes[t], -u, length);
         if (!g.centroids.empty()) {
             const Vec3 contact = 0.5 * (centroids_a_[t] + g.centroids[t] + offset);
             a = std::min(a, away(gazes_a_[t], eyes_a_[t], contact));
@@ -237,13 +232,9 @@ double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
     for (std::size_t t = 0; t < g.cells.size(); ++t) {
         // Points whose box, moved by the offset, misses A's grid all read 0 there: skip them.
         if (g.cells[t].empty()) continue;
-        const auto& box = g.bounds[t];
         const auto& dims = fields_[t].grid.dims;
-        const int move[3] = {pose.i, pose.j, pose.l};
-        bool apart = false;
-        for (std::size_t axis = 0; axis < 3 && !apart; ++axis)
-            apart = box[axis + 3] + move[axis] < 0 || box[axis] + move[axis] >= dims[axis];
-        if (apart) continue;
+        const Eigen::AlignedBox3i grid(Eigen::Vector3i::Zero(), Eigen::Vector3i(dims[0] - 1, dims[1] - 1, dims[2] - 1));
+        if (!g.bounds[t].translated(Eigen::Vector3i(pose.i, pose.j, pose.l)).intersects(grid)) continue;
         double deepest = 0;
         for (const auto& c : g.cells[t]) deepest = std::max(deepest, fields_[t].at(c[0] + pose.i, c[1] + pose.j, c[2] + pose.l));
         sum += deepest;

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "src/edit/edit.hpp"
 #include "src/edit/natural_terms.hpp"
@@ -62,7 +63,7 @@ private:
         std::vector<Vec3> eyes, gazes, around;
         std::vector<Vec3> centroids;            // B's interest part's centroid per frame (empty: none)
         std::vector<std::vector<std::array<int, 3>>> cells;  // B's points' voxels in A's field at C^A, per frame
-        std::vector<std::array<int, 6>> bounds;  // per frame, the cells' box (lowest x y z, highest x y z)
+        std::vector<Eigen::AlignedBox3i> bounds;  // per frame, the box of those cells
         double sliding = NaturalTerms::kNone;
     };
     void prepare_tracks(ObjectSource& a, ObjectSource& b);
