@@ -66,13 +66,25 @@ std::uint32_t file_crc(const fs::path& path) {
     return crc;
 }
 
+// A file's size; a file removed or replaced since it was listed is one clear line, not an exception.
+std::uintmax_t size_of(const fs::path& path) {
+    std::error_code error;
+    const std::uintmax_t size = fs::file_size(path, error);
+    if (error) fail(path.string(), "cannot read its size: {}", error.message());
+    return size;
+}
+
 // "name size time;" of every file in `folder`, by name.
 std::string folder_listing(const fs::path& folder) {
     std::vector<std::string> lines;
-    for (const fs::directory_entry& entry : fs::directory_iterator(folder))
-        if (entry.is_regular_file())
-            lines.push_back(fmt::format("{} {} {};", entry.path().filename().string(), entry.file_size(),
-                                        entry.last_write_time().time_since_epoch().count()));
+    std::error_code error;
+    for (fs::directory_iterator it(folder, error), end; !error && it != end; it.increment(error)) {
+        if (!it->is_regular_file(error)) continue;
+        const auto written = it->last_write_time(error);
+        if (error) break;
+        lines.push_back(fmt::format("{} {} {};", it->path().filename().string(), size_of(it->path()), written.time_since_epoch().count()));
+    }
+    if (error) fail(folder.string(), "cannot list the folder: {}", error.message());
     std::sort(lines.begin(), lines.end());
     return fmt::format("{}", fmt::join(lines, ""));
 }
@@ -150,12 +162,7 @@ std::string inputs_fingerprint(const Scene& scene) {
     const fs::path folder = scene.file.parent_path();
     for (auto input = inputs.begin() + 1; input != inputs.end(); ++input) {  // the TOML itself is the scene hash
         const std::string name = fs::absolute(*input).lexically_relative(folder).string();
-        if (is_file(*input)) {
-            std::error_code error;  // a file removed or replaced since is_file: one clear line, not an exception
-            const std::uintmax_t size = fs::file_size(*input, error);
-            if (error) fail(input->string(), "cannot read its size: {}", error.message());
-            text += fmt::format("{} {} {:08x}\n", name, size, file_crc(*input));
-        }
+        if (is_file(*input)) text += fmt::format("{} {} {:08x}\n", name, size_of(*input), file_crc(*input));
         else if (is_folder(*input)) text += fmt::format("{}/ {}\n", name, folder_listing(*input));
     }
     return fmt::format("{:08x}", std::uint32_t(crc32(crc32(0, nullptr, 0), reinterpret_cast<const Bytef*>(text.data()), uInt(text.size()))));
