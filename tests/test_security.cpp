@@ -24,6 +24,7 @@
 
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
+#include "src/io/mesh_precheck.hpp"
 #include "src/io/mesh_sequence.hpp"
 #include "src/io/output_dir.hpp"
 #include "src/pipeline/page_server.hpp"
@@ -407,6 +408,18 @@ TEST(Security, CheckedMeshFormsStillRead) {
         const TriangleMesh other = read_mesh(tmp.path() / name, UnitsAndAxes{});
         EXPECT_EQ(other.vertices, plain.vertices) << name;
         EXPECT_EQ(other.triangles, plain.triangles) << name;
+    }
+}
+
+// A mesh file removed between read_mesh's checks and the precheck's size: one line naming it.
+TEST(Security, AMeshFileThatGoesBeforeItsCheckIsNamed) {
+    test::TempDir tmp;
+    const fs::path gone = tmp.path() / "gone.ply";
+    try {
+        precheck_mesh_file(gone, tmp.path());
+        FAIL() << "no error";
+    } catch (const amhv::Error& e) {
+        EXPECT_NE(std::string(e.what()).find("gone.ply: cannot read the file"), std::string::npos) << e.what();
     }
 }
 

@@ -344,7 +344,10 @@ void precheck_ply(std::istream& in, const std::string& source, std::uint64_t siz
 // scanned for non-finite coordinates, which OpenMesh would otherwise silently drop.
 void precheck_mesh_file(const fs::path& path, const fs::path& files_root) {
     const std::string source = path.string();
-    const auto size = fs::file_size(path);
+    // The file may go between the caller's check and here: one clear line, not a filesystem_error.
+    std::error_code error;
+    const auto size = fs::file_size(path, error);
+    if (error) fail(source, "cannot read the file: {}", error.message());
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(source, "cannot open file (permission denied?)");
     const std::string ext = lowercase_extension(path);
