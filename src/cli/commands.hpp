@@ -8,6 +8,7 @@ namespace amhv::cli {
 void add_devices_command(CLI::App& app);
 void add_mhv_command(CLI::App& app);
 void add_import_bvh_command(CLI::App& app);
+void add_compose_command(CLI::App& app);
 void add_scene_commands(CLI::App& app);  // check, sweep
 void add_edit_command(CLI::App& app);  // edit, demo
 void add_probe_command(CLI::App& app);

@@ -39,6 +39,7 @@ int run(int argc, char** argv, const char* commit) {
     add_devices_command(app);
     add_mhv_command(app);
     add_import_bvh_command(app);
+    add_compose_command(app);
     add_scene_commands(app);
     add_edit_command(app);
     add_probe_command(app);

@@ -444,6 +444,31 @@ std::array<double, 3> euler_degrees_near(const Eigen::Matrix3d& rotation, const 
     return best;
 }
 
+Eigen::Quaterniond joint_rotation(const BvhMotion& motion, int joint, int frame) {
+    const BvhJoint& j = motion.joints[std::size_t(joint)];
+    const double* row = motion.values.data() + std::size_t(frame) * std::size_t(motion.channel_count);
+    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+    for (std::size_t c = 0; c < j.channels.size(); ++c)
+        if (is_rotation(j.channels[c])) r = r * axis_rotation(j.channels[c], row[std::size_t(j.first_channel) + c]);
+    return Eigen::Quaterniond(r);
+}
+
+void set_joint_rotation(BvhMotion& motion, int joint, int frame, const Eigen::Quaterniond& rotation, int near_frame) {
+    const BvhJoint& j = motion.joints[std::size_t(joint)];
+    std::array<std::size_t, 3> at{};
+    std::array<int, 3> axes{};
+    std::size_t n = 0;
+    for (std::size_t c = 0; c < j.channels.size() && n < 3; ++c)
+        if (is_rotation(j.channels[c])) at[n] = std::size_t(j.first_channel) + c, axes[n++] = axis_of(j.channels[c]);
+    if (n != 3) fail(motion.source, "joint '{}' has no three rotation channels to set", j.name);
+    const std::size_t channels = std::size_t(motion.channel_count);
+    const double* near_row = motion.values.data() + std::size_t(near_frame < 0 ? frame : near_frame) * channels;
+    const std::array<double, 3> near{near_row[at[0]], near_row[at[1]], near_row[at[2]]};
+    const std::array<double, 3> angles = euler_degrees_near(rotation.normalized().toRotationMatrix(), axes, near);
+    double* row = motion.values.data() + std::size_t(frame) * channels;
+    for (std::size_t k = 0; k < 3; ++k) row[at[k]] = angles[k];
+}
+
 BvhMotion load_bvh(const std::filesystem::path& path, const BvhLoadOptions& options) {
     BvhMotion motion = read_bvh(path);
     if (options.tpose == TPose::Skip || (options.tpose == TPose::Auto && starts_with_tpose(motion))) {

@@ -73,6 +73,13 @@ std::string bvh_text(const BvhMotion& motion);
 // flip between representations.
 std::array<double, 3> euler_degrees_near(const Eigen::Matrix3d& rotation, const std::array<int, 3>& axes, const std::array<double, 3>& near);
 
+// The rotation a joint's rotation channels give at `frame` (identity without any), and the
+// reverse: its rotation channels set to `rotation` (a joint with three distinct rotation channels),
+// each angle nearest the same channel's value in frame `near_frame` (or its own value when
+// near_frame < 0), so edited takes do not flip between Euler representations.
+Eigen::Quaterniond joint_rotation(const BvhMotion& motion, int joint, int frame);
+void set_joint_rotation(BvhMotion& motion, int joint, int frame, const Eigen::Quaterniond& rotation, int near_frame);
+
 // read_bvh, then the T-pose rule and, when fps is given and differs from the file's
 // rate, resample_bvh: how scenes, `amhv mhv --bvh` and `amhv import-bvh` all load a take.
 struct BvhLoadOptions {

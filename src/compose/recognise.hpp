@@ -1,0 +1,48 @@
+#pragma once
+// Recognising actions from a few examples (after the splicing document, section 6.1): frame to
+// frame similarity of motion features between each example and each take, blurred along the
+// diagonal; each frame takes the action that matches it best, and single-action nodes are the runs
+// of one action (docs/method.md section 12 says where this differs from the document).
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "src/compose/library.hpp"
+
+namespace amhv::compose {
+
+// Similarity of two features at distance d (metres): exp(-(d / kSimilarityScale)^2), so 0.1 m
+// of root-frame difference (a hand a palm's width elsewhere) reads 0.37.
+inline constexpr double kSimilarityScale = 0.35;
+// The diagonal blur: the mean over +-kBlurSeconds of aligned frames (a pose must match with its
+// neighbours, not alone).
+inline constexpr double kBlurSeconds = 0.1;
+// A frame is labelled with the action whose examples match it best (the blurred similarity at its
+// best aligned pair) when that match reaches kMinVote; below it, the frame stays unknown.
+inline constexpr double kMinVote = 0.4;
+
+struct Node {
+    int take = 0;
+    int first = 0, last = 0;  // frames of the take at the library's clock, inclusive
+    int action = 0;           // into Library::actions
+    int example = 0;          // the example that matched its first frame
+    double vote = 0;          // the mean match over its frames
+};
+
+struct TakeLabels {
+    std::vector<int> action;         // per frame in [take.first, take.last]; -1: unknown
+    std::vector<double> confidence;  // the vote of the node that labels it; 0 when unknown
+};
+
+struct Recognition {
+    std::vector<Node> nodes;           // per take, in frame order
+    std::vector<TakeLabels> labels;    // per take
+};
+
+// The motion features of every take over the frames it uses.
+std::vector<std::vector<Eigen::VectorXd>> library_features(const Library& library);
+
+// Recognition over every take, with every example except those of take `leave_out` (-1: none).
+Recognition recognise(const Library& library, const std::vector<std::vector<Eigen::VectorXd>>& features, int leave_out = -1);
+
+}  // namespace amhv::compose
