@@ -432,9 +432,33 @@ std::vector<Hostile> command_line_cases() {
     };
 }
 
+std::vector<Hostile> compose_cases() {
+    const std::string compose = "compose '{d}/lib.toml' --out '{d}/out'";
+    const std::string take = "[[takes]]\nname = \"a\"\nbvh = \"cmu/18_01.bvh\"\n";
+    const std::string walk = "[[examples]]\ntake = \"a\"\nframes = [1, 96]\naction = \"walk\"\n";
+    const auto lib = [](const std::string& text) { return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"lib.toml", text}}; };
+    return {
+        {"LibraryNotToml", lib("[[takes]\n"), compose, "lib.toml:1:"},
+        {"LibraryNoTakes", lib(walk), compose, "takes: give at least one [[takes]] table"},
+        {"LibraryTakeMissing", lib("[[takes]]\nname = \"a\"\nbvh = \"cmu/none.bvh\"\n" + walk), compose, "lib.toml:3: takes[1].bvh: "},
+        {"LibraryTakeIsAFolder", lib("[[takes]]\nname = \"a\"\nbvh = \"cmu\"\n" + walk), compose, "is not a file"},
+        {"LibraryMixedSkeletons", lib(take + "[[takes]]\nname = \"b\"\nbvh = \"cmu/20_11.bvh\"\n" + walk), compose, "take 'b' does not map joint by joint onto take 'a'"},
+        {"LibraryTakeTooShort", {{"t.bvh", bvh("2", "0.01", kRow, 2)}, {"lib.toml", "[[takes]]\nname = \"a\"\nbvh = \"t.bvh\"\n"}}, compose, "fewer than 0.50 s"},
+        {"LibraryTakeNaN", {{"t.bvh", bvh("1", "0.01", "0 30 0 0 nan 0 0 0 0", 1)}, {"lib.toml", "[[takes]]\nname = \"a\"\nbvh = \"t.bvh\"\n"}}, compose, "is not a finite number"},
+        {"LibraryExampleOutside", lib(take + "[[examples]]\ntake = \"a\"\nframes = [250, 400]\naction = \"walk\"\n"), compose, "lib.toml:6: examples[1].frames"},
+        {"LibraryExampleTooShort", lib(take + "[[examples]]\ntake = \"a\"\nframes = [1, 5]\naction = \"walk\"\n"), compose, "an example needs at least 0.25 s"},
+        {"LibraryExampleUnknownTake", lib(take + "[[examples]]\ntake = \"z\"\nframes = [1, 96]\naction = \"walk\"\n"), compose, "'z' is not a take of the library"},
+        {"LibraryActionWithColon", lib(take + "[[examples]]\ntake = \"a\"\nframes = [1, 96]\naction = \"w:1\"\n"), compose, "no commas, colons or quotes"},
+        {"LibraryUnknownKey", lib(take + walk + "colour = 1\n"), compose, "unknown key"},
+        {"ComposeActionWithoutExample", lib(take + walk), compose + " --actions 'walk, wave'", "'wave' has no example in the library"},
+        {"ComposeDurationBad", lib(take + walk), compose + " --actions 'walk:3-1'", "a duration is MIN-MAX in seconds"},
+        {"ComposeNoPath", lib(take + walk), compose + " --actions 'walk:10-20'", "no path through the motion graph"},
+    };
+}
+
 std::vector<Hostile> corpus() {
     std::vector<Hostile> all;
-    for (auto part : {bvh_cases(), mesh_cases(), scene_cases(), sweep_folder_cases(), command_line_cases()}) all.insert(all.end(), part.begin(), part.end());
+    for (auto part : {bvh_cases(), mesh_cases(), scene_cases(), sweep_folder_cases(), command_line_cases(), compose_cases()}) all.insert(all.end(), part.begin(), part.end());
     return all;
 }
 
