@@ -135,6 +135,12 @@ TEST(Output, ASecondRunIntoTheSameFolderIsRefusedWhileTheFirstWrites) {
     write_user_file(tmp.path() / (".out.partial-" + writing) / "mhv.json", "{}");
     write_user_file(tmp.path() / (".out.partial-" + writing) / (std::string(StagedOutput::kMarker) + ".writing"), "{\"amhv_output\": 2, \"fol");
     write_user_file(tmp.path() / ".out.partial-999994-0123456789abcdef" / (std::string(StagedOutput::kMarker) + ".writing"), "{\"amh");
+    // Killed while removing an old output it had swapped out: its marker goes last, so what is
+    // left is a subset of what the marker lists.
+    const std::string swapped = ".out.partial-999993-0123456789abcdef";
+    write_user_file(tmp.path() / swapped / StagedOutput::kMarker,
+                    "{\"amhv_output\": 2, \"folders\": [\"frames\"], \"files\": [[\"frames/a.json\", 2], [\"mhv.json\", 2]]}\n");
+    write_user_file(tmp.path() / swapped / "frames" / "a.json", "{}");
     auto next = test::run_amhv(fmt::format("{} --out '{}'", mhv, out.string()));
     EXPECT_EQ(next.exit_code, 0) << next.output;
     EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + dead)));
@@ -142,6 +148,7 @@ TEST(Output, ASecondRunIntoTheSameFolderIsRefusedWhileTheFirstWrites) {
     EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999996-0123456789abcdef"));
     EXPECT_FALSE(fs::exists(tmp.path() / (".out.partial-" + writing)));
     EXPECT_FALSE(fs::exists(tmp.path() / ".out.partial-999994-0123456789abcdef"));
+    EXPECT_FALSE(fs::exists(tmp.path() / swapped));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-999998-0123456789abcdef" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / ".out.partial-anything" / "mine.txt"));
     EXPECT_TRUE(fs::exists(tmp.path() / (".out.partial-" + alive)));

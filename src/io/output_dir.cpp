@@ -87,6 +87,18 @@ std::string random_run_identity() {
     return fmt::format("{}-{:016x}", ::getpid(), r);
 }
 
+// Removes an amhv folder (a staging folder, or an old output swapped out) with its marker last: a
+// run killed part way leaves a folder whose marker still says it is amhv's and lists a superset of
+// what is left, so the next run recognises it and finishes the removal.
+void remove_marked_folder(const fs::path& folder, std::error_code& ec) {
+    std::vector<fs::path> entries;
+    for (const auto& entry : fs::directory_iterator(folder, ec))
+        if (entry.path().filename() != StagedOutput::kMarker) entries.push_back(entry.path());
+    for (const fs::path& entry : entries) fs::remove_all(entry, ec);
+    fs::remove(folder / StagedOutput::kMarker, ec);
+    fs::remove(folder, ec);
+}
+
 bool process_is_alive(long pid) { return pid > 0 && (::kill(pid_t(pid), 0) == 0 || errno == EPERM); }
 
 // The outputs being written by this process, for the interrupt watcher.
@@ -301,7 +313,7 @@ void StagedOutput::remove_stale_staging() const {
         }
         if (ours || (unstarted && !ec)) stale.push_back(entry.path());
     }
-    for (const fs::path& p : stale) fs::remove_all(p, ec);
+    for (const fs::path& p : stale) remove_marked_folder(p, ec);
 }
 
 StagedOutput::~StagedOutput() { release(); }
@@ -309,7 +321,7 @@ StagedOutput::~StagedOutput() { release(); }
 void StagedOutput::release() {
     std::error_code ec;
     std::lock_guard<std::mutex> hold(active().mutex);
-    if (!committed_ && !staging_.empty()) fs::remove_all(staging_, ec);
+    if (!committed_ && !staging_.empty()) remove_marked_folder(staging_, ec);
     if (lock_fd_ >= 0) {
         struct stat held {}, now {};
         if (::fstat(lock_fd_, &held) == 0 && ::lstat(lock_path_.c_str(), &now) == 0 && held.st_ino == now.st_ino && held.st_dev == now.st_dev)
@@ -337,7 +349,7 @@ void StagedOutput::commit() {
         fail(target_.string(), "cannot swap the finished output into place ({})", std::error_code(errno, std::generic_category()).message());
     committed_ = true;
     // A run killed during this clean-up leaves a staging folder the next run removes.
-    fs::remove_all(staging_, ec);
+    remove_marked_folder(staging_, ec);
 }
 
 void watch_interrupts() {
