@@ -25,6 +25,12 @@ std::vector<int> KeyJoints::all() const {
     return {head, hand[0], hand[1], elbow[0], elbow[1], knee[0], knee[1], foot[0], foot[1]};
 }
 
+std::vector<int> KeyJoints::with_hips() const {
+    std::vector<int> joints = all();
+    joints.push_back(hips);
+    return joints;
+}
+
 KeyJoints key_joints(const std::vector<std::string>& roles, const std::string& source) {
     KeyJoints k;
     k.hips = role(roles, "Hips", source);

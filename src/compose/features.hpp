@@ -17,7 +17,8 @@ namespace amhv::compose {
 struct KeyJoints {
     int hips = -1, head = -1;
     std::array<int, 2> hand{-1, -1}, elbow{-1, -1}, foot{-1, -1}, knee{-1, -1}, hip{-1, -1};  // left, right
-    std::vector<int> all() const;  // the joints a feature holds: head, hands, elbows, knees, feet
+    std::vector<int> all() const;        // the joints a feature holds: head, hands, elbows, knees, feet
+    std::vector<int> with_hips() const;  // all(), then the hips: the joints splice distances compare
 };
 KeyJoints key_joints(const std::vector<std::string>& roles, const std::string& source);
 

@@ -17,8 +17,7 @@ namespace {
 
 // Key joints and hips of every frame of a take, file units.
 std::vector<std::vector<Vec3>> key_positions(const BvhMotion& m, const KeyJoints& key) {
-    std::vector<int> joints = key.all();
-    joints.push_back(key.hips);
+    const std::vector<int> joints = key.with_hips();
     std::vector<std::vector<Vec3>> out(std::size_t(m.frame_count));
     for (int f = m.first_frame; f < m.frame_count; ++f) {
         const auto global = m.global_transforms(f);

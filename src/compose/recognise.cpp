@@ -44,13 +44,11 @@ std::vector<Node> label_frames(const Library& library, int take, const std::vect
     const std::size_t count = std::size_t(t.frames());
     labels.action.assign(count, -1);
     labels.confidence.assign(count, 0.0);
-    std::vector<int> by(count, -1);
     for (std::size_t f = 0; f < count; ++f)
         for (std::size_t e = 0; e < examples.size(); ++e)
             if (h[e][f] >= kMinVote && h[e][f] > labels.confidence[f]) {
                 labels.confidence[f] = h[e][f];
                 labels.action[f] = library.action_index(library.examples[std::size_t(examples[e])].action);
-                by[f] = examples[e];
             }
     std::vector<Node> nodes;
     const std::size_t min_length = std::size_t(std::ceil(kMinExampleSeconds * library.fps));
@@ -60,7 +58,7 @@ std::vector<Node> label_frames(const Library& library, int take, const std::vect
         if (labels.action[start] >= 0 && end - start + 1 < min_length) {
             for (std::size_t f = start; f <= end; ++f) labels.action[f] = -1, labels.confidence[f] = 0;
         } else if (labels.action[start] >= 0) {
-            Node node{take, t.first + int(start), t.first + int(end), labels.action[start], by[start], 0.0};
+            Node node{take, t.first + int(start), t.first + int(end), labels.action[start], 0.0};
             for (std::size_t f = start; f <= end; ++f) node.vote += labels.confidence[f] / double(end - start + 1);
             nodes.push_back(node);
         }
@@ -74,10 +72,10 @@ std::vector<Node> label_frames(const Library& library, int take, const std::vect
 std::vector<std::vector<Eigen::VectorXd>> library_features(const Library& library) {
     const KeyJoints key = key_joints(library.roles, library.file.string());
     std::vector<std::vector<Eigen::VectorXd>> out(library.takes.size());
-    parallel_for(library.takes.size(), [&](std::size_t t_) { const int t = int(t_);
-        const LibraryTake& take = library.takes[std::size_t(t)];
+    parallel_for(library.takes.size(), [&](std::size_t t) {
+        const LibraryTake& take = library.takes[t];
         const PoseTrack track = pose_track(take.motion, library.units, key);
-        out[std::size_t(t)] = motion_features(track, key, library.fps, take.first, take.last);
+        out[t] = motion_features(track, key, library.fps, take.first, take.last);
     });
     return out;
 }

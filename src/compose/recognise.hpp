@@ -25,7 +25,6 @@ struct Node {
     int take = 0;
     int first = 0, last = 0;  // frames of the take at the library's clock, inclusive
     int action = 0;           // into Library::actions
-    int example = 0;          // the example that matched its first frame
     double vote = 0;          // the mean match over its frames
 };
 

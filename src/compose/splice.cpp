@@ -43,11 +43,10 @@ Pose pose_of(const BvhMotion& m, int frame) {
 
 // The key joints' positions (file units) at frames around `frame`, clamped to [first, last].
 std::vector<Vec3> window_points(const BvhMotion& m, const KeyJoints& key, int frame, int first, int last, int half, const FloorMove* move, int up) {
+    const std::vector<int> joints = key.with_hips();
     std::vector<Vec3> out;
     for (int o = -half; o <= half; ++o) {
         const auto global = m.global_transforms(std::clamp(frame + o, first, last));
-        std::vector<int> joints = key.all();
-        joints.push_back(key.hips);
         for (int j : joints) out.push_back(move ? move->apply(global[std::size_t(j)].translation(), up) : Vec3(global[std::size_t(j)].translation()));
     }
     return out;
