@@ -432,6 +432,90 @@ std::vector<Hostile> command_line_cases() {
     };
 }
 
+// A small glTF (JSON, its buffer inline as base64): a triangle skinned to a chain of `joints`
+// joints J1, J2, ... (node 0 holds the mesh), each vertex of weight `weight` on J1, and, when
+// `animated`, an animation turning J1. `buffer_uri` replaces the inline buffer (a path).
+std::string gltf_text(int joints, float weight, bool animated, const std::string& buffer_uri = "") {
+    std::string bytes;
+    auto put = [&](const void* p, std::size_t n) { bytes.append(static_cast<const char*>(p), n); };
+    const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    put(positions, sizeof(positions));                                   // 0: 36
+    const std::uint16_t joint_ids[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    put(joint_ids, sizeof(joint_ids));                                   // 36: 24
+    const float weights[12] = {weight, 0, 0, 0, weight, 0, 0, 0, weight, 0, 0, 0};
+    put(weights, sizeof(weights));                                       // 60: 48
+    const std::uint16_t indices[4] = {0, 1, 2, 0};
+    put(indices, sizeof(indices));                                       // 108: 8
+    const float times[2] = {0, 1}, rotations[8] = {0, 0, 0, 1, 0, 0, 0.7071068f, 0.7071068f};
+    put(times, sizeof(times));                                           // 116: 8
+    put(rotations, sizeof(rotations));                                   // 124: 32
+    const float identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    for (int j = 0; j < joints; ++j) put(identity, sizeof(identity));   // 156: 64 per joint
+    static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string b64;
+    for (std::size_t i = 0; i < bytes.size(); i += 3) {
+        const std::uint32_t n = (std::uint32_t(std::uint8_t(bytes[i])) << 16) | (i + 1 < bytes.size() ? std::uint32_t(std::uint8_t(bytes[i + 1])) << 8 : 0u) |
+                                (i + 2 < bytes.size() ? std::uint32_t(std::uint8_t(bytes[i + 2])) : 0u);
+        for (int k = 0; k < 4; ++k) b64 += i * 4 / 3 + std::size_t(k) < (bytes.size() * 4 + 2) / 3 ? alphabet[(n >> (18 - 6 * k)) & 63] : '=';
+    }
+    nlohmann::json nodes = nlohmann::json::array({{{"name", "body"}, {"mesh", 0}, {"skin", 0}}});
+    nlohmann::json skin_joints = nlohmann::json::array();
+    for (int j = 1; j <= joints; ++j) {
+        nlohmann::json node = {{"name", fmt::format("J{}", j)}};
+        if (j < joints) node["children"] = {j + 1};
+        nodes.push_back(node);
+        skin_joints.push_back(j);
+    }
+    auto view = [](int offset, int length) { return nlohmann::json{{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length}}; };
+    nlohmann::json g = {
+        {"asset", {{"version", "2.0"}}},
+        {"scene", 0},
+        {"scenes", {{{"nodes", {0, 1}}}}},
+        {"nodes", nodes},
+        {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"JOINTS_0", 1}, {"WEIGHTS_0", 2}}}, {"indices", 3}}}}}}},
+        {"skins", {{{"joints", skin_joints}, {"inverseBindMatrices", 6}}}},
+        {"buffers", {{{"byteLength", bytes.size()}, {"uri", buffer_uri.empty() ? "data:application/octet-stream;base64," + b64 : buffer_uri}}}},
+        {"bufferViews", {view(0, 36), view(36, 24), view(60, 48), view(108, 6), view(116, 8), view(124, 32), view(156, 64 * joints)}},
+        {"accessors",
+         {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}, {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+          {{"bufferView", 1}, {"componentType", 5123}, {"count", 3}, {"type", "VEC4"}},
+          {{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC4"}},
+          {{"bufferView", 3}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}},
+          {{"bufferView", 4}, {"componentType", 5126}, {"count", 2}, {"type", "SCALAR"}, {"min", {0}}, {"max", {1}}},
+          {{"bufferView", 5}, {"componentType", 5126}, {"count", 2}, {"type", "VEC4"}},
+          {{"bufferView", 6}, {"componentType", 5126}, {"count", joints}, {"type", "MAT4"}}}}};
+    if (animated) {
+        nlohmann::json sampler = {{"input", 4}, {"output", 5}, {"interpolation", "LINEAR"}};
+        nlohmann::json channel = {{"sampler", 0}, {"target", {{"node", 1}, {"path", "rotation"}}}};
+        nlohmann::json animation = {{"name", "turn"}, {"samplers", nlohmann::json::array({sampler})}, {"channels", nlohmann::json::array({channel})}};
+        g["animations"] = nlohmann::json::array({animation});
+    }
+    return g.dump();
+}
+
+std::vector<Hostile> character_cases() {
+    std::string scene = kScene;
+    scene.replace(scene.find("bvh = \"cmu/18_01.bvh\""), std::string("bvh = \"cmu/18_01.bvh\"").size(), "character = \"c.gltf\"");
+    const std::string check = "check '{d}/scene.toml'";
+    const auto with = [&](const std::string& gltf, const std::string& extra = "") {
+        std::string text = scene;
+        text.replace(text.find("character = \"c.gltf\""), std::string("character = \"c.gltf\"").size(), "character = \"c.gltf\"" + extra);
+        return std::vector<std::pair<std::string, std::string>>{{"@cmu", ""}, {"scene.toml", text}, {"c.gltf", gltf}};
+    };
+    return {
+        {"CharacterNotReadable", with("{\"asset\": 1"), check, "cannot be read as a character"},
+        {"CharacterNoAnimation", with(gltf_text(3, 1, false)), check, "holds no animation"},
+        {"CharacterTooManyJoints", with(gltf_text(1100, 1, true)), check, "more than 1024 nodes"},
+        {"CharacterNaNWeights", with(gltf_text(3, std::nanf(""), true)), check, "has no weight"},
+        {"CharacterZeroWeights", with(gltf_text(3, 0, true)), check, "weights sum to 0"},
+        {"CharacterUnknownAnimation", with(gltf_text(3, 1, true), "\nanimation = \"walk\""), check, "has no animation named walk (it has: turn)"},
+        {"CharacterBufferOutsideItsFolder", with(gltf_text(3, 1, true, "../../../../../../etc/passwd")), check, "cannot be read as a character"},
+        {"CharacterUnknownRig", with(gltf_text(3, 1, true), "\nfps = 200"), check, "no joint plays the role of the head (a joint named like Head)"},
+        {"CharacterAndBvh", with(gltf_text(3, 1, true), "\nbvh = \"cmu/18_01.bvh\""), check, "give exactly one of 'meshes'"},
+        {"CharacterWithLabels", with(gltf_text(3, 1, true), "\nlabels = \"l_%04d.txt\""), check, "a character's body already has part labels"},
+    };
+}
+
 std::vector<Hostile> compose_cases() {
     const std::string compose = "compose '{d}/lib.toml' --out '{d}/out'";
     const std::string take = "[[takes]]\nname = \"a\"\nbvh = \"cmu/18_01.bvh\"\n";
@@ -458,7 +542,7 @@ std::vector<Hostile> compose_cases() {
 
 std::vector<Hostile> corpus() {
     std::vector<Hostile> all;
-    for (auto part : {bvh_cases(), mesh_cases(), scene_cases(), sweep_folder_cases(), command_line_cases(), compose_cases()}) all.insert(all.end(), part.begin(), part.end());
+    for (auto part : {bvh_cases(), mesh_cases(), scene_cases(), sweep_folder_cases(), command_line_cases(), compose_cases(), character_cases()}) all.insert(all.end(), part.begin(), part.end());
     return all;
 }
 

@@ -24,6 +24,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libopenvdb-dev libboost-iostreams-dev
   libtinygltf-dev libnanoflann-dev zlib1g-dev
+  libassimp-dev        # animated characters (glTF, FBX, Collada)
   libcpp-httplib-dev   # the page server of `amhv view --serve`
 )
 npm_tools=()

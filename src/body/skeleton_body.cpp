@@ -136,36 +136,35 @@ TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBod
     return body;
 }
 
-std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options) {
-    // The joints by role (role_names fails, naming the role, when one is missing).
-    const std::vector<std::string> roles = role_names(motion);
+std::vector<TrackSample> joints_track(const JointFrames& joints, const UnitsAndAxes& units) {
+    const std::vector<std::string>& roles = joints.roles;
     auto find = [&](const char* role) {
         const auto at = std::find(roles.begin(), roles.end(), role);
-        if (at == roles.end()) fail(motion.source, "cannot derive a view track: no joint plays the role {}", role);
+        if (at == roles.end()) fail(joints.source, "cannot derive a view track: no joint plays the role {}", role);
         return std::size_t(at - roles.begin());
     };
     const std::size_t head = find("Head"), left_arm = find("LeftArm"), right_arm = find("RightArm");
     const std::size_t left_leg = find("LeftUpLeg"), right_leg = find("RightUpLeg");
     int head_end = -1;
-    for (std::size_t j = 0; j < motion.joints.size(); ++j)
-        if (motion.joints[j].parent == int(head)) head_end = int(j);
+    for (std::size_t j = 0; j < joints.parent.size(); ++j)
+        if (joints.parent[j] == int(head)) head_end = int(j);
     // The file's axes to the scene's, as a matrix (a rotation, or a reflection for a mirrored file).
     Eigen::Matrix3d axes;
-    for (int c = 0; c < 3; ++c) axes.col(c) = to_scene_direction(Vec3::Unit(c), options.units);
+    for (int c = 0; c < 3; ++c) axes.col(c) = to_scene_direction(Vec3::Unit(c), units);
 
-    std::vector<TrackSample> track(std::size_t(motion.frame_count));
+    std::vector<TrackSample> track(std::size_t(joints.frame_count));
     std::vector<Eigen::Matrix3d> head_rotation(track.size());
     Vec3 head_local_forward = Vec3::Zero();
-    for (int f = 0; f < motion.frame_count; ++f) {
-        auto g = motion.global_transforms(f);
-        auto at = [&](std::size_t j) { return to_scene_point(g[j].translation(), options.units); };
+    for (int f = 0; f < joints.frame_count; ++f) {
+        const std::vector<Eigen::Affine3d> g = joints.globals(f);
+        auto at = [&](std::size_t j) { return to_scene_point(g[j].translation(), units); };
         // Facing from hips and shoulders: forward = left x up.
         Vec3 left = (at(left_arm) - at(right_arm)) + (at(left_leg) - at(right_leg));
         Vec3 forward(left.y(), -left.x(), 0);
         if (forward.norm() < 1e-9) forward = Vec3::UnitX();
         forward.normalize();
         head_rotation[std::size_t(f)] = axes * g[head].linear() * axes.transpose();
-        if (f >= motion.first_frame) head_local_forward += head_rotation[std::size_t(f)].transpose() * forward;  // not the T-pose
+        if (f >= joints.first_frame) head_local_forward += head_rotation[std::size_t(f)].transpose() * forward;  // not the T-pose
         Vec3 top = head_end >= 0 ? at(std::size_t(head_end)) : at(head) + Vec3(0, 0, 0.2);
         track[std::size_t(f)].eye = 0.5 * (at(head) + top);
         track[std::size_t(f)].gaze = forward;
@@ -180,6 +179,17 @@ std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonB
         }
     }
     return track;
+}
+
+std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options) {
+    // The joints by role (role_names fails, naming the role, when one is missing).
+    JointFrames joints{motion.source, role_names(motion), {}, motion.frame_count, motion.first_frame, {}};
+    for (const BvhJoint& j : motion.joints) joints.parent.push_back(j.parent);
+    joints.globals = [&](int f) {
+        const auto g = motion.global_transforms(f);
+        return std::vector<Eigen::Affine3d>(g.begin(), g.end());
+    };
+    return joints_track(joints, options.units);
 }
 
 MeshSequence skeleton_body_sequence(const BvhMotion& motion, const FrameRange& range, const SkeletonBodyOptions& options) {

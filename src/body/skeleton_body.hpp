@@ -1,6 +1,7 @@
 #pragma once
 // A closed body mesh built around a skeleton's bones: one capsule per bone with a radius that
 // looks like a person, so the non-zero winding voxelisation sees one solid body.
+#include <functional>
 #include <memory>
 
 #include "src/core/geometry.hpp"
@@ -54,6 +55,19 @@ struct TrackSample {
     Vec3 gaze = Vec3::UnitX();
 };
 std::vector<TrackSample> skeleton_track(const BvhMotion& motion, const SkeletonBodyOptions& options);
+
+// The same from any skeleton whose joints have roles (a BVH take, a character's rig): per joint its
+// role (skeleton_roles' vocabulary) and parent, and per frame every joint's global transform in the
+// file's units and axes.
+struct JointFrames {
+    std::string source;
+    std::vector<std::string> roles;
+    std::vector<int> parent;
+    int frame_count = 0;
+    int first_frame = 0;  // frames before it (a T-pose) do not calibrate the head
+    std::function<std::vector<Eigen::Affine3d>(int)> globals;
+};
+std::vector<TrackSample> joints_track(const JointFrames& joints, const UnitsAndAxes& units);
 
 // The body at BVH frame `frame`, in metres, z up.
 TriangleMesh skeleton_body(const BvhMotion& motion, int frame, const SkeletonBodyOptions& options);

@@ -12,6 +12,7 @@
 
 #include "src/body/skeleton_body.hpp"
 #include "src/body/skeleton_roles.hpp"
+#include "src/body/surface_caps.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
 
@@ -134,115 +135,6 @@ void read_skin_joints(const tinygltf::Model& m, const tinygltf::Skin& skin, Skin
 
 // ---- closing surfaces ----
 
-// The boundary of a triangle set as directed edges (a, b) where (a, b) is used more often than
-// (b, a), walked into loops; fails when some vertex starts more boundary edges than it ends (the
-// boundary is then no union of loops and a cap cannot close it).
-std::vector<std::vector<std::uint32_t>> boundary_loops(const std::vector<std::array<std::uint32_t, 3>>& triangles, const std::string& what) {
-    std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
-    for (const auto& t : triangles)
-        for (int c = 0; c < 3; ++c) ++uses[{t[std::size_t(c)], t[std::size_t((c + 1) % 3)]}];
-    std::map<std::uint32_t, std::vector<std::uint32_t>> next;
-    std::map<std::uint32_t, int> balance;
-    for (const auto& [edge, n] : uses) {
-        auto reverse = uses.find({edge.second, edge.first});
-        for (int k = n - (reverse == uses.end() ? 0 : reverse->second); k > 0; --k) {
-            next[edge.first].push_back(edge.second);
-            ++balance[edge.first];
-            --balance[edge.second];
-        }
-    }
-    for (const auto& [v, b] : balance)
-        if (b != 0) fail(what, "the surface cannot be closed: its boundary at vertex {} is not a loop", v);
-    std::vector<std::vector<std::uint32_t>> loops;
-    for (auto& [start, outs] : next) {
-        while (!outs.empty()) {
-            std::vector<std::uint32_t> loop{start};
-            std::uint32_t at = outs.back();
-            outs.pop_back();
-            while (at != start) {
-                loop.push_back(at);
-                auto& from = next[at];
-                const std::uint32_t to = from.back();  // balanced: never empty here
-                from.pop_back();
-                at = to;
-            }
-            loops.push_back(std::move(loop));
-        }
-    }
-    return loops;
-}
-
-// Caps every loop with a fan around a new vertex (its index `first_new` + loop number): each
-// boundary edge (a, b) gets the triangle (b, a, centre), so the surface becomes a closed 2-cycle.
-void cap_loops(const std::vector<std::vector<std::uint32_t>>& loops, std::uint32_t first_new, std::vector<std::array<std::uint32_t, 3>>& triangles) {
-    for (std::size_t l = 0; l < loops.size(); ++l) {
-        const auto& loop = loops[l];
-        for (std::size_t i = 0; i < loop.size(); ++i) triangles.push_back({loop[(i + 1) % loop.size()], loop[i], first_new + std::uint32_t(l)});
-    }
-}
-
-// Drops every triangle that repeats a directed edge of an earlier one (a fin: three or more
-// triangles on one edge), so that capping leaves each edge between exactly two triangles.
-int drop_fins(std::vector<std::array<std::uint32_t, 3>>& triangles) {
-    std::set<std::pair<std::uint32_t, std::uint32_t>> used;
-    std::vector<std::array<std::uint32_t, 3>> kept;
-    for (const auto& t : triangles) {
-        const std::array<std::pair<std::uint32_t, std::uint32_t>, 3> edges{{{t[0], t[1]}, {t[1], t[2]}, {t[2], t[0]}}};
-        if (used.count(edges[0]) || used.count(edges[1]) || used.count(edges[2])) continue;
-        used.insert(edges.begin(), edges.end());
-        kept.push_back(t);
-    }
-    const int dropped = int(triangles.size() - kept.size());
-    triangles = std::move(kept);
-    return dropped;
-}
-
-// Gives each fan of triangles around a vertex its own copy of the vertex (appended to `sources`,
-// which maps each local vertex to the vertex it copies), so that a vertex two caps or two wedges
-// of a part only touch becomes two: mesh libraries (OpenMesh) then read the part back as it is.
-// Each directed edge is paired with a reverse one; triangles paired across an edge at a vertex are
-// one fan there. A closed surface stays closed. Fails when an edge is left between more than two
-// triangles.
-void split_fans(std::vector<std::array<std::uint32_t, 3>>& triangles, std::vector<std::uint32_t>& sources, const std::string& what) {
-    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::size_t>> corners_of;  // directed edge -> corners where it starts
-    for (std::size_t t = 0; t < triangles.size(); ++t)
-        for (std::size_t c = 0; c < 3; ++c) corners_of[{triangles[t][c], triangles[t][(c + 1) % 3]}].push_back(t * 3 + c);
-    std::vector<std::size_t> parent(triangles.size() * 3);
-    std::iota(parent.begin(), parent.end(), std::size_t(0));
-    auto root = [&](std::size_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-    };
-    auto next = [](std::size_t corner) { return corner / 3 * 3 + (corner % 3 + 1) % 3; };
-    for (const auto& [edge, starts] : corners_of) {
-        if (edge.first > edge.second) continue;
-        const auto reverse = corners_of.find({edge.second, edge.first});
-        if (reverse == corners_of.end() || reverse->second.size() != starts.size() || starts.size() > 1)
-            fail(what, "edge {}-{} is not between exactly two triangles", edge.first, edge.second);
-        const std::size_t f = starts[0], g = reverse->second[0];  // f: a -> b, g: b -> a
-        parent[root(f)] = root(next(g));                          // both corners at a
-        parent[root(next(f))] = root(g);                          // both corners at b
-    }
-    std::map<std::pair<std::uint32_t, std::size_t>, std::uint32_t> copy_of;  // (vertex, fan) -> local vertex
-    std::map<std::uint32_t, bool> seen;
-    for (std::size_t corner = 0; corner < parent.size(); ++corner) {
-        std::uint32_t& v = triangles[corner / 3][corner % 3];
-        auto [at, added] = copy_of.emplace(std::make_pair(v, root(corner)), v);
-        if (added && seen[v]) {  // a further fan of v: a copy
-            at->second = std::uint32_t(sources.size());
-            sources.push_back(sources[v]);
-        }
-        seen[v] = true;
-        v = at->second;
-    }
-}
-
-Vec3 mean_of(const std::vector<Vec3>& points, const std::vector<std::uint32_t>& ids) {
-    Vec3 sum = Vec3::Zero();
-    for (std::uint32_t i : ids) sum += points[i];
-    return sum / double(ids.size());
-}
-
 }  // namespace
 
 
@@ -268,6 +160,8 @@ struct SkinnedFit {
     std::vector<std::vector<std::uint32_t>> derived; // per vertex past the welded ones: the loop it is the mean of
     std::vector<Driver> joints;
     std::vector<Part> parts;
+    std::vector<std::array<std::uint32_t, 3>> surface;  // the model's triangles between welded vertices (no caps)
+    std::vector<std::string> roles;                     // per take joint
     Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // the file's axes to the scene's
     SkinnedFitSummary summary;
 };
@@ -438,45 +332,15 @@ void place_bind_pose(FitFrame& f, std::vector<Vec3>& vertices, double& scale) {
     for (std::size_t v = 0; v < f.model.welded_vertices(); ++v) vertices.push_back(place(f.model.vertices[v]));
 }
 
-// Labels every triangle with the part of its vertices' strongest joints (two of three decide, else
-// the first), then closes each part across its cuts with fans around new vertices.
-void split_parts(const SkinModel& model, const std::vector<std::string>& vertex_part, SkinnedFit& fit) {
-    std::map<std::string, std::vector<std::array<std::uint32_t, 3>>> by_part;
-    for (const auto& t : model.triangles) {
-        const std::string& a = vertex_part[t[0]];
-        by_part[a == vertex_part[t[1]] || a == vertex_part[t[2]] ? a : vertex_part[t[1]] == vertex_part[t[2]] ? vertex_part[t[1]] : a].push_back(t);
-    }
-    std::vector<std::string> order = body_part_names();
-    for (const auto& [name, triangles] : by_part)
-        if (std::find(order.begin(), order.end(), name) == order.end()) order.push_back(name);
-    for (const std::string& name : order) {
-        auto at = by_part.find(name);
-        if (at == by_part.end()) continue;
-        std::vector<std::array<std::uint32_t, 3>> triangles = at->second;
-        const auto cuts = boundary_loops(triangles, model.source + " part " + name);
-        cap_loops(cuts, std::uint32_t(fit.rest.size() + fit.derived.size()), triangles);
-        for (const auto& loop : cuts) fit.derived.push_back(loop);
-        fit.summary.part_caps += int(cuts.size());
-        SkinnedFit::Part part{name, {}, {}};
-        std::map<std::uint32_t, std::uint32_t> local;
-        for (auto& t : triangles)
-            for (auto& v : t) {
-                auto [it, added] = local.emplace(v, std::uint32_t(part.vertices.size()));
-                if (added) part.vertices.push_back(v);
-                v = it->second;
-            }
-        split_fans(triangles, part.vertices, model.source + " part " + name);
-        part.triangles = std::move(triangles);
-        fit.parts.push_back(std::move(part));
-    }
-}
-
 }  // namespace
 
 std::shared_ptr<const SkinnedFit> fit_skin_model(const SkinModel& model, const BvhMotion& motion, const UnitsAndAxes& units) {
     auto fit = std::make_shared<SkinnedFit>();
     for (int c = 0; c < 3; ++c) fit->axes.col(c) = to_scene_direction(Vec3::Unit(c), units);
     const std::vector<std::string> roles = role_names(motion);
+    fit->roles = roles;
+    for (const auto& t : model.triangles)
+        if (t[0] < model.welded_vertices() && t[1] < model.welded_vertices() && t[2] < model.welded_vertices()) fit->surface.push_back(t);
     FitFrame f{model, {}, {}, take_rest_pose(motion, units, fit->axes), chain_take_joints(roles, motion.source)};
     for (const BvhJoint& j : motion.joints) f.take_parent.push_back(j.parent);
     place_bind_pose(f, fit->rest, fit->summary.scale);
@@ -506,12 +370,19 @@ std::shared_ptr<const SkinnedFit> fit_skin_model(const SkinModel& model, const B
         for (std::size_t c = 0; c < 4; ++c) d[c] = driver_of_model[std::size_t(model.joints[v][c])];
         fit->drivers.push_back(d);
         fit->weights.push_back(model.weights[v]);
-        const std::size_t strongest = std::size_t(std::max_element(model.weights[v].begin(), model.weights[v].end()) - model.weights[v].begin());
-        vertex_part[v] = skinned_body_part(roles[std::size_t(fit->joints[std::size_t(d[strongest])].bvh_joint)]);
+        // The part of the driver that moves the vertex most (model joints one driver moves, such
+        // as twist bones, summed; ties to the driver met first).
+        std::map<int, float> per_driver;
+        for (std::size_t c = 0; c < 4; ++c) per_driver[d[c]] += model.weights[v][c];
+        int strongest = d[0];
+        for (std::size_t c = 0; c < 4; ++c)
+            if (per_driver[d[c]] > per_driver[strongest]) strongest = d[c];
+        vertex_part[v] = skinned_body_part(roles[std::size_t(fit->joints[std::size_t(strongest)].bvh_joint)]);
     }
     fit->derived = model.derived;
     for (std::size_t k = 0; k < model.derived.size(); ++k) vertex_part[model.welded_vertices() + k] = vertex_part[model.derived[k].front()];
-    split_parts(model, vertex_part, *fit);
+    for (SurfacePart& part : split_into_parts(model.triangles, vertex_part, body_part_names(), model.source, fit->rest.size(), fit->derived, fit->summary.part_caps))
+        fit->parts.push_back({std::move(part.name), std::move(part.vertices), std::move(part.triangles)});
     fit->summary.capped_holes = model.capped_holes;
     return fit;
 }
@@ -545,6 +416,77 @@ std::vector<BodyPart> skinned_body_parts(const SkinnedFit& fit, const BvhMotion&
         parts.push_back(std::move(out));
     }
     return parts;
+}
+
+AnimatedSkin skinned_body_animation(const SkinnedFit& fit, const BvhMotion& motion, const FrameRange& range, const UnitsAndAxes& units) {
+    AnimatedSkin out;
+    out.vertices = fit.rest;
+    out.triangles = fit.surface;
+    out.joints = fit.drivers;
+    out.weights = fit.weights;
+    out.fps = motion.fps();
+    std::map<int, int> driver_of_take;
+    for (std::size_t d = 0; d < fit.joints.size(); ++d) driver_of_take[fit.joints[d].bvh_joint] = int(d);
+    // Drivers in the take's order (parents first), each under the driver of its nearest driven ancestor.
+    std::vector<int> order;
+    for (const auto& [take_joint, d] : driver_of_take) order.push_back(d);
+    std::vector<int> new_index(fit.joints.size());
+    for (std::size_t k = 0; k < order.size(); ++k) new_index[std::size_t(order[k])] = int(k);
+    for (int d : order) {
+        const SkinnedFit::Driver& j = fit.joints[std::size_t(d)];
+        int parent = -1;
+        for (int a = motion.joints[std::size_t(j.bvh_joint)].parent; a >= 0 && parent < 0; a = motion.joints[std::size_t(a)].parent)
+            if (auto at = driver_of_take.find(a); at != driver_of_take.end()) parent = new_index[std::size_t(at->second)];
+        out.joint_names.push_back(fit.roles[std::size_t(j.bvh_joint)]);
+        out.joint_parent.push_back(parent);
+        Eigen::Affine3d bind = Eigen::Affine3d::Identity();
+        bind.linear() = j.fit;
+        bind.translation() = -(j.fit * j.anchor);
+        out.inverse_bind.push_back(bind);
+    }
+    // The take's end sites below driven joints (the top of the head: the view track's eye) as
+    // joints of their own that no vertex follows.
+    std::vector<std::pair<int, int>> ends;  // take end site, its joint's index
+    for (std::size_t k = 0; k < motion.joints.size(); ++k) {
+        const BvhJoint& e = motion.joints[k];
+        const auto at = e.end_site && e.parent >= 0 ? driver_of_take.find(e.parent) : driver_of_take.end();
+        if (at == driver_of_take.end()) continue;
+        ends.emplace_back(int(k), int(out.joint_names.size()));
+        out.joint_names.push_back(fit.roles[k]);
+        out.joint_parent.push_back(new_index[std::size_t(at->second)]);
+        out.inverse_bind.push_back(Eigen::Affine3d::Identity());
+    }
+    // glTF wants each joint once per vertex: weights of model joints that one driver moves are summed.
+    for (std::size_t v = 0; v < out.joints.size(); ++v) {
+        std::map<int, float> merged;
+        for (std::size_t k = 0; k < 4; ++k)
+            if (out.weights[v][k] > 0) merged[new_index[std::size_t(out.joints[v][k])]] += out.weights[v][k];
+        std::vector<std::pair<float, int>> ranked;
+        for (const auto& [joint, weight] : merged) ranked.emplace_back(weight, joint);
+        std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        out.joints[v] = {0, 0, 0, 0};
+        out.weights[v] = {0, 0, 0, 0};
+        for (std::size_t k = 0; k < ranked.size(); ++k) out.joints[v][k] = ranked[k].second, out.weights[v][k] = ranked[k].first;
+    }
+    for (int frame = range.first; frame <= range.last; ++frame) {
+        const auto global = motion.global_transforms(frame);
+        std::vector<Eigen::Isometry3d> pose;
+        for (int d : order) {
+            const SkinnedFit::Driver& j = fit.joints[std::size_t(d)];
+            const Eigen::Isometry3d& g = global[std::size_t(j.bvh_joint)];
+            Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+            t.linear() = fit.axes * g.linear() * fit.axes.transpose() * j.rest_rotation.transpose();
+            t.translation() = to_scene_point(g.translation(), units);
+            pose.push_back(t);
+        }
+        for (const auto& [k, index] : ends) {
+            Eigen::Isometry3d t = pose[std::size_t(out.joint_parent[std::size_t(index)])];
+            t.translation() = to_scene_point(global[std::size_t(k)].translation(), units);
+            pose.push_back(t);
+        }
+        out.global.push_back(std::move(pose));
+    }
+    return out;
 }
 
 SkinnedFitSummary summarise(const SkinnedFit& fit) { return fit.summary; }

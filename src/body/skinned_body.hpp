@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "src/core/geometry.hpp"
 #include "src/io/bvh.hpp"
 #include "src/io/mesh_sequence.hpp"
@@ -53,6 +55,23 @@ std::shared_ptr<const SkinnedFit> fit_skin_model(const SkinModel& model, const B
 
 // The fitted body at BVH frame `frame`, split by part (body_part_names' order), metres, z up.
 std::vector<BodyPart> skinned_body_parts(const SkinnedFit& fit, const BvhMotion& motion, int frame, const UnitsAndAxes& units);
+
+// A skinned mesh and its joints' motion, as an animated glTF holds them (src/results/character_glb.hpp):
+// scene axes (z up), metres. Vertex v at frame f is sum_k weight[v][k] * global[f][j] *
+// inverse_bind[j] * vertices[v] over its joints j = joints[v][k].
+struct AnimatedSkin {
+    std::vector<Vec3> vertices;                            // bind pose
+    std::vector<std::array<std::uint32_t, 3>> triangles;   // the model's surface (its holes left open)
+    std::vector<std::array<int, 4>> joints;                // per vertex
+    std::vector<std::array<float, 4>> weights;
+    std::vector<std::string> joint_names;                  // the take's joint roles
+    std::vector<int> joint_parent;                         // parents first; -1: the root
+    std::vector<Eigen::Affine3d> inverse_bind;             // per joint (it may stretch: the fit)
+    std::vector<std::vector<Eigen::Isometry3d>> global;    // per frame, per joint
+    double fps = 30;
+};
+// The fitted human driven by frames `range` of the take.
+AnimatedSkin skinned_body_animation(const SkinnedFit& fit, const BvhMotion& motion, const FrameRange& range, const UnitsAndAxes& units);
 
 // For tests and `amhv check`: how the fit went.
 struct SkinnedFitSummary {

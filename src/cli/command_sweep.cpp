@@ -28,6 +28,17 @@ struct SweepArguments {
     std::optional<std::string> shard;  // --shard [K/N]
 };
 
+// A character's rig as amhv read it: each joint's role and part, and how its surface was closed.
+void print_character_mapping(const std::string& name, const CharacterBody& body) {
+    const CharacterMapping& m = character_mapping(body);
+    const CharacterFile& file = character_file(body);
+    std::cout << fmt::format("# object {}: character {}, animation {} ({} frames at {} fps); {} hole{} capped, {} cut{} between parts\n", name,
+                             file.source, printable(file.animation), file.frame_count(), file.fps, m.capped_holes, m.capped_holes == 1 ? "" : "s",
+                             m.part_caps, m.part_caps == 1 ? "" : "s");
+    for (std::size_t j = 0; j < m.joint_roles.size(); ++j)
+        std::cout << fmt::format("#   joint {} -> role {} -> part {}\n", printable(m.joint_roles[j].first), m.joint_roles[j].second, m.joint_parts[j].second);
+}
+
 void run_check(const std::string& file) {
     Scene scene = load_scene(file);
     // The objects' takes and tracks too: a scene whose files are broken is not valid.
@@ -42,6 +53,8 @@ void run_check(const std::string& file) {
             std::cout << fmt::format("# object {} has the parts {}\n", scene.objects[o].name, fmt::join(sources[o]->label_names(), ", "));
     for (const auto& o : sources)
         if (!o->floor_note().empty()) std::cout << "# " << o->floor_note() << '\n';
+    for (const auto& o : sources)
+        if (const CharacterBody* c = o->character()) print_character_mapping(o->spec().name, *c);
     if (scene.multi_party())
         std::cout << fmt::format("# placement order: {} ({})\n", fmt::join(scene.order, ", "), scene.order_rule);
 }

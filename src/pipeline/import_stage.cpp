@@ -8,6 +8,7 @@
 
 #include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
+#include "src/results/character_glb.hpp"
 
 namespace amhv::pipeline {
 
@@ -53,6 +54,8 @@ void import_bvh_into(const BvhMotion& motion, const std::string& bvh, const Fram
         triangles = std::max(triangles, body.triangles.size());
     }
     write_file(out / "track.csv", csv);
+    // The skinned human as an animated character (frame 0 of its animation is frame range.first).
+    if (options.skinned) write_character_glb(skinned_body_animation(*options.skinned, motion, range, options.units), out / "character.glb");
     write_file(out / "object.toml",
                fmt::format("# amhv import-bvh of {}: an object table for a scene ([objects.A] or [objects.B]).\n"
                            "# Paths are relative to this folder: prefix them with its path relative to the scene file.\n"
@@ -67,6 +70,7 @@ void import_bvh_into(const BvhMotion& motion, const std::string& bvh, const Fram
     json["metres_per_unit"] = options.units.metres_per_unit;
     json["up"] = std::string(1, "xyz"[int(options.units.up)]);
     json["parts"] = part_names;
+    if (options.skinned) json["character"] = "character.glb";
     json["vertices_per_frame"] = vertices;
     json["triangles_per_frame"] = triangles;
     write_file(out / "import.json", json.dump(2) + '\n');

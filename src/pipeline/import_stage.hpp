@@ -1,7 +1,7 @@
 #pragma once
 // The stage of `amhv import-bvh`: a BVH take written as files other tools and scenes read: the
 // body mesh per frame (PLY, a colour per part), part labels, the view track, an object table and
-// import.json. The CLI loads the take, opens the output folder and calls this.
+// import.json; with the skinned body, character.glb (the human animated by the take). The CLI loads the take, opens the output folder and calls this.
 #include <filesystem>
 #include <string>
 

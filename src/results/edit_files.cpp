@@ -57,7 +57,7 @@ void write_transforms_json(const fs::path& path, const Scene& scene, const EditR
     json["convention"] = "scene point = R(yaw) * capture point + (x, y, 0): a turn about the vertical (z) axis, then a move on the floor; "
                          "metres, z up, yaw in degrees counter-clockwise; matrix is the same map, row-major 4x4";
     json["frames"] = edit.timeline.length();
-    json["objects"] = {{"A", scene.a.bvh.empty() ? scene.a.meshes : scene.a.bvh}, {"B", scene.b.bvh.empty() ? scene.b.meshes : scene.b.bvh}};
+    json["objects"] = {{"A", object_source_path(scene.a)}, {"B", object_source_path(scene.b)}};
     nlohmann::ordered_json segments = nlohmann::ordered_json::array();
     for (std::size_t s = 0; s < edit.timeline.segments.size(); ++s) {
         const TimelineSegment& seg = edit.timeline.segments[s];

@@ -31,7 +31,7 @@ void write_party_transforms_json(const fs::path& path, const Scene& scene, const
     nlohmann::ordered_json objects;
     for (const std::string& name : names) {
         const SceneObject& o = scene.object(name);
-        objects[name] = o.bvh.empty() ? o.meshes : o.bvh;
+        objects[name] = object_source_path(o);
     }
     json["objects"] = objects;
     json["order"] = names;

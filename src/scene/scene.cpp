@@ -13,6 +13,7 @@
 #include "src/core/error.hpp"
 #include "src/core/normalise.hpp"
 #include "src/io/bvh.hpp"
+#include "src/io/character_file.hpp"
 #include "src/io/toml_reader.hpp"
 
 namespace amhv {
@@ -42,6 +43,23 @@ void read_floor(TableReader& t, SceneObject& o) {
     o.units.lift = -*o.floor_m;
 }
 
+// A character's frames: its animation sampled at `fps` (default 30), frame 0 at the animation's start.
+void read_character_frames(TableReader& t, const toml::node* source_node, SceneObject& o) {
+    if (!is_file(o.character)) t.error("character", source_node, "'{}' is not a file", o.character);
+    o.animation = t.string("animation");
+    const std::optional<double> fps = t.number("fps", 1, 1000, false);
+    CharacterFile file;
+    try {
+        file = read_character(o.character, o.animation, fps);
+    } catch (const Error& e) {
+        fail(t.where("character", source_node), "{}", e.what());
+    }
+    o.animation = file.animation;
+    o.fps = file.fps;
+    o.frame_first = 0;
+    o.frame_last = file.frame_count() - 1;
+}
+
 SceneObject read_object(TableReader& objects, const std::string& name) {
     TableReader t = objects.table(name, true);
     SceneObject o;
@@ -49,10 +67,14 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     o.anchor = t.boolean("anchor").value_or(false);
     auto meshes = t.string("meshes");
     auto bvh = t.string("bvh");
-    if (meshes.has_value() == bvh.has_value()) t.error("meshes", nullptr, "give exactly one of 'meshes' (a mesh sequence) and 'bvh'");
+    auto character = t.string("character");
+    if (int(meshes.has_value()) + int(bvh.has_value()) + int(character.has_value()) != 1)
+        t.error("meshes", nullptr, "give exactly one of 'meshes' (a mesh sequence), 'bvh' (a take) and 'character' (an animated glTF, FBX or Collada file)");
     if (meshes) o.meshes = resolve(t.file(), *meshes);
     if (bvh) o.bvh = resolve(t.file(), *bvh);
-    const std::string default_unit = bvh ? "0.0564444" : "m", default_up = bvh ? "y" : "z";
+    if (character) o.character = resolve(t.file(), *character);
+    // A BVH: CMU's unit and y up; a character: glTF's metres and y up; meshes: metres, z up.
+    const std::string default_unit = bvh ? "0.0564444" : "m", default_up = (bvh || character) ? "y" : "z";
     o.units.metres_per_unit = parse_unit(t.string("unit").value_or(default_unit), t.where("unit", t.get("unit")));
     o.units.up = parse_up_axis(t.string("up").value_or(default_up), t.where("up", t.get("up")));
     if (auto axes = t.string("axes")) {
@@ -61,12 +83,12 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     }
     read_floor(t, o);
     if (auto labels = t.string("labels")) {
-        if (bvh) t.error("labels", t.get("labels"), "a BVH body already has part labels (head, torso, left_hand, ...)");
+        if (!meshes) t.error("labels", t.get("labels"), "a {} body already has part labels (head, torso, left_hand, ...)", bvh ? "BVH" : "character's");
         o.labels = resolve(t.file(), *labels);
     }
     if (auto track = t.string("track")) o.track = resolve(t.file(), *track);
     if (auto root = t.string("files_root")) {
-        if (bvh) t.error("files_root", t.get("files_root"), "only a mesh sequence names other files (materials, textures)");
+        if (!meshes) t.error("files_root", t.get("files_root"), "only a mesh sequence names other files (materials, textures)");
         o.files_root = resolve(t.file(), *root);
         if (!is_folder(o.files_root)) t.error("files_root", t.get("files_root"), "'{}' is not a folder", o.files_root.string());
     }
@@ -78,8 +100,10 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
     placement.finish();
 
     // The frames available.
-    const toml::node* source_node = t.get(bvh ? "bvh" : "meshes");
-    if (bvh) {
+    const toml::node* source_node = t.get(bvh ? "bvh" : character ? "character" : "meshes");
+    if (character) {
+        read_character_frames(t, source_node, o);
+    } else if (bvh) {
         if (!is_file(o.bvh)) t.error("bvh", source_node, "'{}' is not a file", o.bvh);
         if (auto tpose = t.string("tpose")) o.tpose = parse_tpose(*tpose, t.where("tpose", t.get("tpose")));
         if (auto body = t.string("body")) o.body = parse_body_kind(*body, t.where("body", t.get("body")));
@@ -100,15 +124,18 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
         o.frame_first = frames.front().number;
         o.frame_last = frames.back().number;
     }
+    if (!character && t.has("animation")) t.error("animation", t.get("animation"), "only a character has animations");
     if (!bvh) {
         if (t.has("tpose")) t.error("tpose", t.get("tpose"), "only a BVH object has a T-pose frame");
         if (t.has("body")) t.error("body", t.get("body"), "only a BVH object gets a body built for it (a mesh sequence is its own body)");
-        if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
+        if (!character)
+            if (auto fps = t.number("fps", 0, 1000, false)) o.fps = *fps;
     }
     // The frames the edit covers (default: all there are); key segments must lie inside.
     if (auto range = t.frame_range("frames")) {
         if ((*range)[0] < o.frame_first || (*range)[1] > o.frame_last)
-            t.error("frames", t.get("frames"), "frames {}..{} are beyond the {} frames {}..{}", (*range)[0], (*range)[1], bvh ? "BVH's" : "sequence's",
+            t.error("frames", t.get("frames"), "frames {}..{} are beyond the {} frames {}..{}", (*range)[0], (*range)[1],
+                    bvh ? "BVH's" : character ? "animation's" : "sequence's",
                     o.frame_first, o.frame_last);
         o.frame_first = (*range)[0];
         o.frame_last = (*range)[1];
@@ -140,7 +167,7 @@ PartSpec read_part(TableReader& parent, const std::string& key, const SceneObjec
         const bool except = t.has("parts_except");
         part.kind = except ? PartSpec::Kind::PartsExcept : PartSpec::Kind::Parts;
         part.labels = t.strings(except ? "parts_except" : "parts");
-        if (object.bvh.empty() && object.labels.empty())
+        if (object.bvh.empty() && object.character.empty() && object.labels.empty())
             t.error(except ? "parts_except" : "parts", node, "object {} has no part labels (give it 'labels' or use a BVH)", object.name);
     } else {
         TableReader box = t.table("box");
@@ -549,6 +576,7 @@ std::string resolved_toml(const Scene& scene) {
         if (scene.multi_party() || (o->anchor && o != &scene.objects.front())) t.insert("anchor", o->anchor);
         if (!o->meshes.empty()) t.insert("meshes", o->meshes);
         if (!o->bvh.empty()) t.insert("bvh", o->bvh);
+        if (!o->character.empty()) t.insert("character", o->character), t.insert("animation", *o->animation);
         t.insert("unit", o->units.metres_per_unit);
         if (o->units.axes) t.insert("axes", o->units.axes->describe());
         else t.insert("up", std::string(1, "xyz"[int(o->units.up)]));
@@ -633,7 +661,7 @@ void add_input(std::vector<std::filesystem::path>& inputs, const std::string& pa
 std::vector<std::filesystem::path> scene_inputs(const Scene& scene) {
     std::vector<std::filesystem::path> inputs{scene.file};
     for (const SceneObject& object : scene.objects)
-        for (const std::string* path : {&object.meshes, &object.bvh, &object.labels, &object.track}) add_input(inputs, *path);
+        for (const std::string* path : {&object.meshes, &object.bvh, &object.character, &object.labels, &object.track}) add_input(inputs, *path);
     for (const KeySegment& segment : scene.segments)
         for (const PartSpec* part : {&segment.interest_a, &segment.interest_b, &segment.fidelity_a, &segment.fidelity_b})
             if (part->kind == PartSpec::Kind::Meshes) add_input(inputs, part->meshes);

@@ -34,14 +34,16 @@ struct SceneObject {
     std::string name;                  // the key of [objects.NAME]: "A", "B", ...
     bool anchor = false;               // the object that stays fixed (docs/method.md section 11)
     std::string meshes;                // folder or printf pattern (resolved path), or
-    std::string bvh;                   // a BVH file: a body built from the bones
+    std::string bvh;                   // a BVH file: a body built from the bones, or
+    std::string character;             // an animated, skinned character (glTF, FBX, Collada; src/body/character_body.hpp)
+    std::optional<std::string> animation;  // character: the animation to play (required when the file holds several)
     BodyKind body = BodyKind::Capsules;  // BVH: capsules around the bones, or the skinned human
     UnitsAndAxes units;                // unit, up / axes, and (floor) the lift that puts the floor at z = 0
     // floor: a height in the scene's axes (units.lift = -floor), or "auto" (floor_auto: a low
     // percentile of the frames' lowest points, found when the object's frames are read).
     std::optional<double> floor_m;
     bool floor_auto = false;
-    double fps = 25;                   // a BVH is resampled to it (default: the file's rate)
+    double fps = 25;                   // a BVH is resampled to it (default: the file's rate); a character sampled at it (default 30)
     TPose tpose = TPose::Auto;         // BVH: skip or keep frame 0 (resolved from auto when loaded)
     std::string labels;                // optional per-vertex part labels (pattern of text files)
     std::string track;                 // optional CSV: frame, eye xyz, gaze xyz (object units/axes)
@@ -52,6 +54,9 @@ struct SceneObject {
     Placement placement;               // editor's initial placement of the capture frame in the scene
     int frame_first = 0, frame_last = -1;  // frame numbers available (inclusive)
 };
+
+// The file or pattern an object is read from: its meshes, its BVH take or its character.
+inline const std::string& object_source_path(const SceneObject& o) { return !o.bvh.empty() ? o.bvh : !o.character.empty() ? o.character : o.meshes; }
 
 struct VisibilitySpec {
     bool enabled = false;

@@ -147,8 +147,8 @@ double ObjectSource::find_floor() {
     std::vector<double> lowest;
     for (int f = spec_.frame_first; f <= spec_.frame_last; ++f) {
         double low = std::numeric_limits<double>::infinity();
-        if (motion_) {
-            for (const BodyPart& part : skeleton_body_parts(*motion_, f, body_options_))
+        if (motion_ || character_) {
+            for (const BodyPart& part : body_frame_parts(f))
                 for (const Vec3& v : part.mesh.vertices) low = std::min(low, v.z());
         } else {
             for (const Vec3& v : read_mesh(frame_file(spec_.meshes, f), spec_.units, spec_.files_root).vertices) low = std::min(low, v.z());
@@ -165,6 +165,16 @@ double ObjectSource::find_floor() {
     return floor;
 }
 
+// A BVH body's or a character's parts at frame `number`, with the object's units as they are now.
+std::vector<BodyPart> ObjectSource::body_frame_parts(int number) const {
+    if (character_) {
+        if (number < 0 || number >= character_file(*character_).frame_count())
+            fail("object " + spec_.name, "has no frame {} (its animation has frames 0..{})", number, character_file(*character_).frame_count() - 1);
+        return character_body_parts(*character_, number, spec_.units);
+    }
+    return skeleton_body_parts(*motion_, number, body_options_);
+}
+
 ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
     if (!spec_.bvh.empty()) {
         motion_ = load_bvh(spec_.bvh, BvhLoadOptions{spec_.tpose, spec_.fps});
@@ -172,6 +182,8 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
         // The fit depends on the axes and unit only (a lift moves the rest and every frame alike).
         if (spec_.body == BodyKind::Skinned) body_options_.skinned = fit_skin_model(load_skin_model(shipped_body_model()), *motion_, spec_.units);
     }
+    if (!spec_.character.empty())
+        character_ = build_character_body(std::make_shared<const CharacterFile>(read_character(spec_.character, spec_.animation, spec_.fps)));
     if (spec_.floor_auto) {
         spec_.units.lift = -find_floor();
     }
@@ -180,6 +192,11 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
         auto samples = skeleton_track(*motion_, body_options_);
         for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];
         label_names_ = body_part_names(*motion_, spec_.body == BodyKind::Skinned);
+    }
+    if (character_) {
+        auto samples = character_track(*character_, spec_.units);
+        for (std::size_t f = 0; f < samples.size(); ++f) track_[int(f)] = samples[f];
+        label_names_ = character_mapping(*character_).parts;
     }
     if (!spec_.track.empty()) track_ = read_track_csv(spec_.track, spec_.units);
 }
@@ -251,8 +268,8 @@ const std::vector<BodyPart>& ObjectSource::frame_parts(int number) {
     if (auto it = frames_.find(number); it != frames_.end()) return it->second;
     if (is_group()) return group_parts(number);
     std::vector<BodyPart> parts;
-    if (motion_) {
-        parts = skeleton_body_parts(*motion_, number, body_options_);
+    if (motion_ || character_) {
+        parts = body_frame_parts(number);
     } else {
         const fs::path file = frame_file(spec_.meshes, number);
         TriangleMesh mesh = read_mesh(file, spec_.units, spec_.files_root);

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "src/body/character_body.hpp"
 #include "src/body/skeleton_body.hpp"
 #include "src/core/normalise.hpp"
 #include "src/voxelise/voxelise.hpp"
@@ -61,16 +62,20 @@ public:
     const std::string& floor_note() const { return floor_note_; }
     // The loaded take of a BVH object (at the scene's rate), else null.
     const BvhMotion* motion() const { return motion_ ? &*motion_ : nullptr; }
+    // The character of a character object, else null.
+    const CharacterBody* character() const { return character_.get(); }
     // The lift the object's frames get (-floor).
     double lift() const { return spec_.units.lift; }
 
 private:
     double find_floor();
+    std::vector<BodyPart> body_frame_parts(int number) const;
     const std::vector<BodyPart>& group_parts(int number);
     void make_group_track();
     std::string floor_note_;
     SceneObject spec_;
     std::optional<BvhMotion> motion_;
+    std::shared_ptr<const CharacterBody> character_;
     SkeletonBodyOptions body_options_;
     std::map<int, TrackSample> track_;
     std::map<int, std::vector<BodyPart>> frames_;
