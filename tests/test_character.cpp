@@ -327,6 +327,28 @@ TEST(Character, TheDemoAsCharactersFindsTheSkinnedBodiesGroup) {
     EXPECT_GT(a["solutions"].get<int>(), 1000);
     EXPECT_EQ(a["solutions"], b["solutions"]);
     for (const char* key : {"x", "y", "theta_deg"}) EXPECT_EQ(a["chosen"][key], b["chosen"][key]) << key;
+    // The edited characters: B.glb plays B as the edit moved it (transforms.json), valid glTF.
+    EXPECT_EQ(nlohmann::json::parse(test::read_text(tmp.path() / "character" / "result.json"))["output"]["characters"],
+              nlohmann::json::array({"A.glb", "B.glb"}));
+    const auto valid = test::validate_gltf(tmp.path() / "character" / "B.glb");
+    EXPECT_EQ(valid.exit_code, 0) << valid.output;
+    const auto transforms = nlohmann::json::parse(test::read_text(tmp.path() / "character" / "transforms.json"));
+    const CharacterFile captured = read_character(shipped("cmu_19_01.glb"), std::nullopt, std::nullopt);
+    const CharacterFile edited = read_character(tmp.path() / "character" / "B.glb", std::nullopt, captured.fps);
+    ASSERT_EQ(edited.frame_count(), transforms.at("frames").get<int>());
+    const UnitsAndAxes gltf{1.0, UpAxis::Y};
+    for (int k : {0, 60, 120, edited.frame_count() - 1}) {
+        const auto& t = transforms.at("output").at(std::size_t(k)).at("B");
+        const Eigen::Rotation2Dd yaw(t.at("yaw_deg").get<double>() * std::numbers::pi / 180);
+        Box3 expected, got;
+        for (const Vec3& v : skin_character_vertices(captured, t.at("source").get<int>())) {
+            const Vec3 p = to_scene_point(v, gltf);
+            const Eigen::Vector2d xy = yaw * Eigen::Vector2d(p.x(), p.y()) + Eigen::Vector2d(t.at("x").get<double>(), t.at("y").get<double>());
+            expected.extend(Vec3(xy.x(), xy.y(), p.z() + t.at("z").get<double>()));
+        }
+        for (const Vec3& v : skin_character_vertices(edited, k)) got.extend(to_scene_point(v, gltf));
+        EXPECT_LT((expected.min - got.min).norm() + (expected.max - got.max).norm(), 1e-4) << "frame " << k;
+    }
     const auto check = test::run_amhv(fmt::format("check '{}'", (scenes / "characters.toml").string()));
     EXPECT_EQ(check.exit_code, 0) << check.output;
     EXPECT_NE(check.output.find("#   joint RightHand -> role RightHand -> part right_hand"), std::string::npos) << check.output;

@@ -301,7 +301,8 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
     write_eye_views(out / "views", scene, party.names, views, frame_lists, pointers);
     write_paths_picture(out / "paths.svg", out / "paths.png", paths_objects(scene, party));
     const std::vector<std::string> bvh = write_edited_bvh(out, party.names, frame_lists, pointers);
-    results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"scene_glb", nullptr}, {"views", key_views_json(views, cameras, party.names)}};
+    const std::vector<std::string> characters = write_edited_characters(out, party.names, frame_lists, pointers);
+    results::Json outputs = {{"frames", options.frames}, {"bvh", bvh}, {"characters", characters}, {"scene_glb", nullptr}, {"views", key_views_json(views, cameras, party.names)}};
     if (options.glb) {
         std::vector<GlbObject> objects;
         for (std::size_t o = 0; o < party.names.size(); ++o) objects.push_back({party.names[o], pointers[o], &party.frames[o]});

@@ -229,6 +229,7 @@ EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::pat
     write_paths_picture(out / "paths.svg", out / "paths.png", edit);
     files.views = write_key_and_eye_views(out / "views", scene, edit, a, b);
     files.bvh = write_edited_bvh(out, edit, a, b);
+    files.characters = write_edited_characters(out, {"A", "B"}, {&edit.frames[0], &edit.frames[1]}, {&a, &b});
     if (glb.valid()) {
         const SceneGlbReport report = glb.get();
         files.glb = true;

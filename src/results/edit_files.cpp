@@ -10,6 +10,7 @@
 #include <cairo.h>
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "src/core/angles.hpp"
 #include "src/core/budget.hpp"
@@ -17,6 +18,7 @@
 #include "src/core/parallel.hpp"
 #include "src/io/files.hpp"
 #include "src/io/ply_file.hpp"
+#include "src/results/character_glb.hpp"
 #include "src/results/key_views.hpp"
 #include "src/results/picture.hpp"
 
@@ -334,6 +336,29 @@ std::vector<std::string> write_edited_bvh(const fs::path& folder, const std::vec
         const std::string name = names[o] + ".bvh";
         write_file(folder / name, bvh_text(out));
         written.push_back(name);
+    }
+    return written;
+}
+
+std::vector<std::string> write_edited_characters(const fs::path& folder, const std::vector<std::string>& names,
+                                                 const std::vector<const std::vector<ObjectFrameEdit>*>& frames,
+                                                 const std::vector<ObjectSource*>& sources) {
+    std::vector<std::string> written;
+    for (std::size_t o = 0; o < names.size(); ++o) {
+        const CharacterBody* character = sources[o]->character();
+        if (!character) continue;
+        std::vector<int> from;
+        std::vector<Eigen::Isometry3d> edits;
+        for (const ObjectFrameEdit& e : *frames[o]) {
+            from.push_back(e.source);
+            edits.push_back(edit_in_file(e, sources[o]->spec().units));
+        }
+        const std::string name = names[o] + ".glb";
+        const UnitsAndAxes& units = sources[o]->spec().units;
+        if (write_edited_character_glb(character_file(*character), units, from, edits, sources[o]->spec().fps, folder / name))
+            written.push_back(name);
+        else
+            spdlog::warn("object {}: its meshes bind one joint differently, which one glTF skin cannot hold; {} is not written", names[o], name);
     }
     return written;
 }

@@ -75,6 +75,13 @@ struct KeyView {
 void write_eye_views(const std::filesystem::path& folder, const Scene& scene, const std::vector<std::string>& names, const std::vector<KeyView>& views,
                      const std::vector<const std::vector<ObjectFrameEdit>*>& frames, const std::vector<ObjectSource*>& sources);
 
+// `folder`/NAME.glb for each object of `names` that is a character: the character animated as the
+// edit plays it (its root moved, the rest as read; src/results/character_glb.hpp); returns the names
+// written.
+std::vector<std::string> write_edited_characters(const std::filesystem::path& folder, const std::vector<std::string>& names,
+                                                 const std::vector<const std::vector<ObjectFrameEdit>*>& frames,
+                                                 const std::vector<ObjectSource*>& sources);
+
 // `folder`/A.bvh and B.bvh for the objects read from BVH takes: one frame per output frame (the
 // scene's rate), each the source frame's channels with the root's position and rotation rewritten
 // to carry the edit (in the file's own units and axes); every other channel untouched. A root

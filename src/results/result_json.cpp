@@ -261,6 +261,7 @@ void add_edit(Json& json, const EditResult& edit, const EditFiles& files) {
                       {"scene_bytes", files.glb_bytes},
                       {"scene_fps", files.glb ? nlohmann::json(files.glb_fps) : nlohmann::json(nullptr)},
                       {"bvh", files.bvh},
+                      {"characters", files.characters},
                       {"paths", {"paths.svg", "paths.png"}},
                       {"views", files.views}};
     if (files.obj_files > 0) json["output"]["obj_files"] = files.obj_files;

@@ -42,6 +42,7 @@ struct EditFiles {
     int obj_files = 0;  // frames/A_NNNN.obj, B_NNNN.obj: OBJ input with its appearance
     bool glb = false;  // scene.glb
     std::vector<std::string> bvh;  // A.bvh, B.bvh: the edited takes
+    std::vector<std::string> characters;  // A.glb, B.glb: the edited characters
     std::uint64_t glb_bytes = 0;
     double glb_fps = 0;  // the frame rate scene.glb plays at
     Json views = Json::array();  // views/key_N.png: the output frame each shows, its camera
