@@ -215,9 +215,9 @@ CharacterFile rig_of(const std::vector<std::pair<std::string, int>>& names) {
     return c;
 }
 
-std::map<std::string, std::string> parts_of(const CharacterFile& c) {
+std::map<std::string, std::string> parts_of(const CharacterFile& c, const std::map<std::string, std::string>& roles = {}) {
     std::map<std::string, std::string> out;
-    const auto body = build_character_body(std::make_shared<const CharacterFile>(c));
+    const auto body = build_character_body(std::make_shared<const CharacterFile>(c), roles);
     for (const auto& [joint, part] : character_mapping(*body).joint_parts) out[joint] = part;
     return out;
 }
@@ -254,6 +254,28 @@ TEST(Character, MixamoUnrealAndRigifyRigsMapToTheBodyParts) {
     EXPECT_EQ(rigify.at("DEF-forearm.R"), "right_forearm");
     EXPECT_EQ(rigify.at("DEF-shin.L"), "left_shin");
     EXPECT_EQ(rigify.at("DEF-hand.L"), "left_hand");
+}
+
+// 3ds Max Biped names ("Bip01 L UpperArm": the side in the middle) do not say their roles; the
+// scene's joints table gives them, and the rest of the rig follows from the structure.
+TEST(Character, ARigWhoseNamesDoNotSayTakesItsRolesFromTheScene) {
+    const CharacterFile biped = rig_of({{"Bip01 Pelvis", -1}, {"Bip01 Spine", 0}, {"Bip01 Neck", 1}, {"Bip01 HeadNub", 2},
+                                        {"Bip01 L Clavicle", 1}, {"Bip01 L UpperArm", 4}, {"Bip01 L Forearm", 5}, {"Bip01 L Hand", 6},
+                                        {"Bip01 R Clavicle", 1}, {"Bip01 R UpperArm", 8}, {"Bip01 R Forearm", 9}, {"Bip01 R Hand", 10},
+                                        {"Bip01 L Thigh", 0}, {"Bip01 L Calf", 12}, {"Bip01 L Foot", 13},
+                                        {"Bip01 R Thigh", 0}, {"Bip01 R Calf", 15}, {"Bip01 R Foot", 16}});
+    EXPECT_THROW(parts_of(biped), Error);  // no side in its names
+    const std::map<std::string, std::string> roles{{"Bip01 L UpperArm", "LeftArm"}, {"Bip01 L Forearm", "LeftForeArm"}, {"Bip01 L Hand", "LeftHand"},
+                                                   {"Bip01 R UpperArm", "RightArm"}, {"Bip01 R Forearm", "RightForeArm"}, {"Bip01 R Hand", "RightHand"},
+                                                   {"Bip01 L Thigh", "LeftUpLeg"}, {"Bip01 L Calf", "LeftLeg"}, {"Bip01 L Foot", "LeftFoot"},
+                                                   {"Bip01 R Thigh", "RightUpLeg"}, {"Bip01 R Calf", "RightLeg"}, {"Bip01 R Foot", "RightFoot"},
+                                                   {"Bip01 L Clavicle", "LeftShoulder"}, {"Bip01 R Clavicle", "RightShoulder"}, {"Bip01 HeadNub", "Head"}};
+    const auto parts = parts_of(biped, roles);
+    EXPECT_EQ(parts.at("Bip01 L Forearm"), "left_forearm");
+    EXPECT_EQ(parts.at("Bip01 R Hand"), "right_hand");
+    EXPECT_EQ(parts.at("Bip01 R Calf"), "right_shin");
+    EXPECT_EQ(parts.at("Bip01 HeadNub"), "head");
+    EXPECT_EQ(parts.at("Bip01 Pelvis"), "torso");
 }
 
 fs::path shipped(const std::string& name) { return test::source_dir() / "data" / "characters" / name; }

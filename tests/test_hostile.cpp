@@ -513,6 +513,10 @@ std::vector<Hostile> character_cases() {
         {"CharacterUnknownRig", with(gltf_text(3, 1, true), "\nfps = 200"), check, "no joint plays the role of the head (a joint named like Head)"},
         {"CharacterAndBvh", with(gltf_text(3, 1, true), "\nbvh = \"cmu/18_01.bvh\""), check, "give exactly one of 'meshes'"},
         {"CharacterWithLabels", with(gltf_text(3, 1, true), "\nlabels = \"l_%04d.txt\""), check, "a character's body already has part labels"},
+        {"CharacterJointRoleUnknown", with(gltf_text(3, 1, true), "\njoints = { J1 = \"Elbow\" }"), check, "joints.J1: 'Elbow' is not a role (roles: Hips,"},
+        {"JointsOnABvhObject", {{"@cmu", ""}, {"scene.toml", scene_with("bvh = \"cmu/19_01.bvh\"", "bvh = \"cmu/19_01.bvh\"\njoints = { Head = \"Head\" }")}},
+         check, "objects.B.joints: only a character's joints are given roles by name"},
+        {"CharacterJointNameUnknown", with(gltf_text(3, 1, true), "\njoints = { Bip01 = \"Head\" }"), check, "joints.Bip01: names no joint of"},
     };
 }
 

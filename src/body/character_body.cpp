@@ -87,7 +87,7 @@ std::vector<int> rig_nodes(const CharacterFile& file) {
     return {keep.begin(), keep.end()};  // node indices are parents first
 }
 
-void map_rig(CharacterBody& body) {
+void map_rig(CharacterBody& body, const std::map<std::string, std::string>& joint_roles) {
     const CharacterFile& file = *body.file;
     body.joint_node = rig_nodes(file);
     std::map<int, int> joint_of_node;
@@ -105,7 +105,9 @@ void map_rig(CharacterBody& body) {
     for (int node : body.joint_node) {
         joint_of_node[node] = int(rig.joints.size());
         BvhJoint joint;
-        joint.name = rig_joint_name(file.nodes[std::size_t(node)].name.substr(strip));
+        const std::string& name = file.nodes[std::size_t(node)].name;
+        const auto given = joint_roles.find(name);
+        joint.name = given != joint_roles.end() ? given->second : rig_joint_name(name.substr(strip));
         const auto parent = joint_of_node.find(file.nodes[std::size_t(node)].parent);
         joint.parent = parent == joint_of_node.end() ? -1 : parent->second;
         rig.joints.push_back(joint);
@@ -118,7 +120,7 @@ void map_rig(CharacterBody& body) {
         if (what.rfind(file.source + ": ", 0) == 0) what = what.substr(file.source.size() + 2);
         std::string names;
         for (std::size_t j = 0; j < rig.joints.size() && j < 24; ++j) names += (j ? ", " : "") + printable(file.nodes[std::size_t(body.joint_node[j])].name, 30);
-        fail(file.source, "{} (its rig's joints: {}{}; amhv maps Mixamo, Unreal mannequin, Rigify DEF- and CMU names)", what, names,
+        fail(file.source, "{} (its rig's joints: {}{}; amhv maps Mixamo, Unreal mannequin, Rigify DEF- and CMU names; give others in the object's joints = {{ NAME = ROLE }})", what, names,
              rig.joints.size() > 24 ? ", ..." : "");
     }
 }
@@ -184,10 +186,11 @@ void close_and_split(CharacterBody& body) {
 
 }  // namespace
 
-std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const CharacterFile> file) {
+std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const CharacterFile> file,
+                                                          const std::map<std::string, std::string>& joint_roles) {
     auto body = std::make_shared<CharacterBody>();
     body->file = std::move(file);
-    map_rig(*body);
+    map_rig(*body, joint_roles);
     close_and_split(*body);
     return body;
 }

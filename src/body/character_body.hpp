@@ -3,6 +3,7 @@
 // with assimp (src/io/character_file.hpp), its rig's joints mapped to amhv's roles and parts, each
 // frame skinned by linear blend skinning, welded, closed and cut into the same parts as the BVH
 // bodies, with a view track from the head.
+#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -27,7 +28,9 @@ TriangleMesh skin_character(const CharacterFile& character, int frame);
 std::string rig_joint_name(const std::string& name);
 
 struct CharacterBody;
-std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const CharacterFile> file);
+// `joint_roles`: file joint name -> role (role_vocabulary), for rigs whose names do not say.
+std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const CharacterFile> file,
+                                                          const std::map<std::string, std::string>& joint_roles = {});
 
 // For `amhv check` and tests: the rig's joints with the role each plays and the part its vertices
 // go to, the parts present, and how the surface was closed.

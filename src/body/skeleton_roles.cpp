@@ -153,6 +153,16 @@ void name_leg(const Skeleton& s, int first, int knee, const std::string& side, s
 
 }  // namespace
 
+const std::vector<std::string>& role_vocabulary() {
+    static const std::vector<std::string> roles = [] {
+        std::vector<std::string> out{"Hips", "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head"};
+        for (const char* side : {"Left", "Right"})
+            for (const char* limb : {"Shoulder", "Arm", "ForeArm", "Hand", "UpLeg", "Leg", "Foot", "ToeBase"}) out.push_back(std::string(side) + limb);
+        return out;
+    }();
+    return roles;
+}
+
 std::vector<std::string> role_names(const BvhMotion& motion) {
     const Skeleton s(motion);
     std::vector<std::string> names(s.size());

@@ -23,4 +23,8 @@ namespace amhv {
 // elbow; a leg without a knee; a limb whose side the names do not tell).
 std::vector<std::string> role_names(const BvhMotion& motion);
 
+// The roles a scene may give a character's joints by name (`joints = { NAME = ROLE }`): the spine's,
+// each side's arm and leg chain (Left.../Right...).
+const std::vector<std::string>& role_vocabulary();
+
 }  // namespace amhv

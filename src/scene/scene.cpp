@@ -13,6 +13,7 @@
 #include "src/core/error.hpp"
 #include "src/core/normalise.hpp"
 #include "src/io/bvh.hpp"
+#include "src/body/skeleton_roles.hpp"
 #include "src/io/character_file.hpp"
 #include "src/io/toml_reader.hpp"
 
@@ -56,6 +57,18 @@ void read_character_frames(TableReader& t, const toml::node* source_node, SceneO
     }
     o.animation = file.animation;
     o.fps = file.fps;
+    // Roles given by joint name, for rigs whose names do not say.
+    TableReader joints = t.table("joints");
+    for (const std::string& name : joints.keys_in_file_order()) {
+        const std::string role = *joints.string(name);
+        const auto& vocabulary = role_vocabulary();
+        if (std::find(vocabulary.begin(), vocabulary.end(), role) == vocabulary.end())
+            joints.error(name, joints.get(name), "'{}' is not a role (roles: {})", printable(role), fmt::join(vocabulary, ", "));
+        if (std::none_of(file.nodes.begin(), file.nodes.end(), [&](const CharacterNode& n) { return n.name == name; }))
+            joints.error(name, joints.get(name), "names no joint of {}", o.character);
+        o.joint_roles[name] = role;
+    }
+    joints.finish();
     o.frame_first = 0;
     o.frame_last = file.frame_count() - 1;
 }
@@ -125,6 +138,7 @@ SceneObject read_object(TableReader& objects, const std::string& name) {
         o.frame_last = frames.back().number;
     }
     if (!character && t.has("animation")) t.error("animation", t.get("animation"), "only a character has animations");
+    if (!character && t.has("joints")) t.error("joints", t.get("joints"), "only a character's joints are given roles by name");
     if (!bvh) {
         if (t.has("tpose")) t.error("tpose", t.get("tpose"), "only a BVH object has a T-pose frame");
         if (t.has("body")) t.error("body", t.get("body"), "only a BVH object gets a body built for it (a mesh sequence is its own body)");
@@ -577,6 +591,11 @@ std::string resolved_toml(const Scene& scene) {
         if (!o->meshes.empty()) t.insert("meshes", o->meshes);
         if (!o->bvh.empty()) t.insert("bvh", o->bvh);
         if (!o->character.empty()) t.insert("character", o->character), t.insert("animation", *o->animation);
+        if (!o->joint_roles.empty()) {
+            toml::table roles;
+            for (const auto& [joint, role] : o->joint_roles) roles.insert(joint, role);
+            t.insert("joints", roles);
+        }
         t.insert("unit", o->units.metres_per_unit);
         if (o->units.axes) t.insert("axes", o->units.axes->describe());
         else t.insert("up", std::string(1, "xyz"[int(o->units.up)]));

@@ -37,6 +37,7 @@ struct SceneObject {
     std::string bvh;                   // a BVH file: a body built from the bones, or
     std::string character;             // an animated, skinned character (glTF, FBX, Collada; src/body/character_body.hpp)
     std::optional<std::string> animation;  // character: the animation to play (required when the file holds several)
+    std::map<std::string, std::string> joint_roles;  // character: joint name -> role, for rigs whose names do not say
     BodyKind body = BodyKind::Capsules;  // BVH: capsules around the bones, or the skinned human
     UnitsAndAxes units;                // unit, up / axes, and (floor) the lift that puts the floor at z = 0
     // floor: a height in the scene's axes (units.lift = -floor), or "auto" (floor_auto: a low
