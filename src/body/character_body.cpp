@@ -200,20 +200,9 @@ const CharacterFile& character_file(const CharacterBody& body) { return *body.fi
 
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, int frame, const UnitsAndAxes& units) {
     const std::vector<Vec3> skinned = skin_character_vertices(*body.file, frame);
-    std::vector<Vec3> points(body.welded.size() + body.derived.size());
+    std::vector<Vec3> points(body.welded.size());
     for (std::size_t v = 0; v < body.welded.size(); ++v) points[v] = to_scene_point(skinned[body.welded[v]], units);
-    for (std::size_t k = 0; k < body.derived.size(); ++k) points[body.welded.size() + k] = mean_of(points, body.derived[k]);
-    for (const Vec3& p : points)
-        if (!p.allFinite()) fail(body.file->source, "frame {} gives a vertex that is not finite", frame);
-    std::vector<BodyPart> parts;
-    for (const SurfacePart& part : body.parts) {
-        BodyPart out{part.name, {}};
-        out.mesh.vertices.reserve(part.vertices.size());
-        for (std::uint32_t v : part.vertices) out.mesh.vertices.push_back(points[v]);
-        out.mesh.triangles = part.triangles;
-        parts.push_back(std::move(out));
-    }
-    return parts;
+    return posed_parts(body.parts, std::move(points), body.derived, body.file->source, frame, "a vertex that is not finite");
 }
 
 std::vector<TrackSample> character_track(const CharacterBody& body, const UnitsAndAxes& units) {

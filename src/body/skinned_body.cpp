@@ -149,17 +149,12 @@ struct SkinnedFit {
         Vec3 anchor = Vec3::Zero();                          // the model joint at the take's joint, in the fitted bind pose
         Eigen::Matrix3d rest_rotation = Eigen::Matrix3d::Identity();
     };
-    struct Part {
-        std::string name;
-        std::vector<std::uint32_t> vertices;                  // extended vertex ids, in order
-        std::vector<std::array<std::uint32_t, 3>> triangles;  // into `vertices`
-    };
     std::vector<Vec3> rest;                          // fitted bind pose of the welded vertices
     std::vector<std::array<int, 4>> drivers;         // per welded vertex: index into `joints`
     std::vector<std::array<float, 4>> weights;
     std::vector<std::vector<std::uint32_t>> derived; // per vertex past the welded ones: the loop it is the mean of
     std::vector<Driver> joints;
-    std::vector<Part> parts;
+    std::vector<SurfacePart> parts;                  // closed parts over the extended vertices (welded, then derived)
     std::vector<std::array<std::uint32_t, 3>> surface;  // the model's triangles between welded vertices (no caps)
     std::vector<std::string> roles;                     // per take joint
     Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // the file's axes to the scene's
@@ -381,8 +376,7 @@ std::shared_ptr<const SkinnedFit> fit_skin_model(const SkinModel& model, const B
     }
     fit->derived = model.derived;
     for (std::size_t k = 0; k < model.derived.size(); ++k) vertex_part[model.welded_vertices() + k] = vertex_part[model.derived[k].front()];
-    for (SurfacePart& part : split_into_parts(model.triangles, vertex_part, body_part_names(), model.source, fit->rest.size(), fit->derived, fit->summary.part_caps))
-        fit->parts.push_back({std::move(part.name), std::move(part.vertices), std::move(part.triangles)});
+    fit->parts = split_into_parts(model.triangles, vertex_part, body_part_names(), model.source, fit->rest.size(), fit->derived, fit->summary.part_caps);
     fit->summary.capped_holes = model.capped_holes;
     return fit;
 }
@@ -397,25 +391,14 @@ std::vector<BodyPart> skinned_body_parts(const SkinnedFit& fit, const BvhMotion&
         linear[d] = fit.axes * g.linear() * fit.axes.transpose() * j.rest_rotation.transpose() * j.fit;
         shift[d] = to_scene_point(g.translation(), units) - linear[d] * j.anchor;
     }
-    std::vector<Vec3> points(fit.rest.size() + fit.derived.size(), Vec3::Zero());
+    std::vector<Vec3> points(fit.rest.size(), Vec3::Zero());
     for (std::size_t v = 0; v < fit.rest.size(); ++v)
         for (std::size_t c = 0; c < 4; ++c) {
             if (fit.weights[v][c] == 0) continue;
             const std::size_t d = std::size_t(fit.drivers[v][c]);
             points[v] += double(fit.weights[v][c]) * (linear[d] * fit.rest[v] + shift[d]);
         }
-    for (std::size_t k = 0; k < fit.derived.size(); ++k) points[fit.rest.size() + k] = mean_of(points, fit.derived[k]);
-    for (const Vec3& p : points)
-        if (!p.allFinite()) fail(motion.source, "frame {} gives a non-finite joint position", frame);
-    std::vector<BodyPart> parts;
-    for (const SkinnedFit::Part& part : fit.parts) {
-        BodyPart out{part.name, {}};
-        out.mesh.vertices.reserve(part.vertices.size());
-        for (std::uint32_t v : part.vertices) out.mesh.vertices.push_back(points[v]);
-        out.mesh.triangles = part.triangles;
-        parts.push_back(std::move(out));
-    }
-    return parts;
+    return posed_parts(fit.parts, std::move(points), fit.derived, motion.source, frame, "a non-finite joint position");
 }
 
 AnimatedSkin skinned_body_animation(const SkinnedFit& fit, const BvhMotion& motion, const FrameRange& range, const UnitsAndAxes& units) {

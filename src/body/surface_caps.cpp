@@ -153,4 +153,22 @@ std::vector<SurfacePart> split_into_parts(const std::vector<std::array<std::uint
     return parts;
 }
 
+std::vector<BodyPart> posed_parts(const std::vector<SurfacePart>& parts, std::vector<Vec3> points, const std::vector<std::vector<std::uint32_t>>& derived,
+                                  const std::string& source, int frame, const char* what) {
+    const std::size_t surface = points.size();
+    points.resize(surface + derived.size());
+    for (std::size_t k = 0; k < derived.size(); ++k) points[surface + k] = mean_of(points, derived[k]);
+    for (const Vec3& p : points)
+        if (!p.allFinite()) fail(source, "frame {} gives {}", frame, what);
+    std::vector<BodyPart> out;
+    for (const SurfacePart& part : parts) {
+        BodyPart posed{part.name, {}};
+        posed.mesh.vertices.reserve(part.vertices.size());
+        for (std::uint32_t v : part.vertices) posed.mesh.vertices.push_back(points[v]);
+        posed.mesh.triangles = part.triangles;
+        out.push_back(std::move(posed));
+    }
+    return out;
+}
+
 }  // namespace amhv

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "src/body/skeleton_body.hpp"
 #include "src/core/geometry.hpp"
 
 namespace amhv {
@@ -43,5 +44,11 @@ struct SurfacePart {
 std::vector<SurfacePart> split_into_parts(const std::vector<std::array<std::uint32_t, 3>>& triangles, const std::vector<std::string>& vertex_part,
                                           const std::vector<std::string>& order, const std::string& source, std::size_t vertex_count,
                                           std::vector<std::vector<std::uint32_t>>& derived, int& caps);
+
+// The parts at one pose: `points` holds the surface's vertices at that pose; each cap centre is
+// appended as the mean of its loop (`derived`); fails naming `source` and `frame` ("frame F gives
+// `what`") when a point is not finite.
+std::vector<BodyPart> posed_parts(const std::vector<SurfacePart>& parts, std::vector<Vec3> points, const std::vector<std::vector<std::uint32_t>>& derived,
+                                  const std::string& source, int frame, const char* what);
 
 }  // namespace amhv

@@ -148,6 +148,25 @@ void sample_animation(const aiAnimation& anim, CharacterFile& out) {
         const int node = node_named(out, anim.mChannels[c]->mNodeName.C_Str());
         if (node >= 0) channel[std::size_t(node)] = anim.mChannels[c];
     }
+    // Each animated node's bind-pose translation, rotation and scale: what a channel without keys of one kind keeps.
+    struct Rest {
+        aiVector3D scale, position;
+        aiQuaternion rotation;
+    };
+    std::vector<Rest> rest(out.nodes.size());
+    for (std::size_t n = 0; n < out.nodes.size(); ++n) {
+        if (!channel[n]) continue;
+        aiMatrix4x4 m;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) m[r][c] = ai_real(out.nodes[n].rest.matrix()(r, c));
+        m.Decompose(rest[n].scale, rest[n].rotation, rest[n].position);
+    }
+    auto lerp3 = [](const aiVector3D& a, const aiVector3D& b, double t) { return a + (b - a) * ai_real(t); };
+    auto slerp = [](const aiQuaternion& a, const aiQuaternion& b, double t) {
+        aiQuaternion q;
+        aiQuaternion::Interpolate(q, a, b, ai_real(t));
+        return q.Normalize();
+    };
     out.frames.assign(std::size_t(count), {});
     for (std::size_t f = 0; f < out.frames.size(); ++f) {
         const double tick = double(f) / out.fps * ticks_per_second;
@@ -159,21 +178,9 @@ void sample_animation(const aiAnimation& anim, CharacterFile& out) {
                 locals.push_back(out.nodes[n].rest);
                 continue;
             }
-            aiVector3D rest_scale, rest_position;
-            aiQuaternion rest_rotation;
-            aiMatrix4x4 rest_m;
-            for (int r = 0; r < 4; ++r)
-                for (int c = 0; c < 4; ++c) rest_m[r][c] = ai_real(out.nodes[n].rest.matrix()(r, c));
-            rest_m.Decompose(rest_scale, rest_rotation, rest_position);
-            auto lerp3 = [](const aiVector3D& a, const aiVector3D& b, double t) { return a + (b - a) * ai_real(t); };
-            auto slerp = [](const aiQuaternion& a, const aiQuaternion& b, double t) {
-                aiQuaternion q;
-                aiQuaternion::Interpolate(q, a, b, ai_real(t));
-                return q.Normalize();
-            };
-            const aiVector3D p = sample_keys(ch->mPositionKeys, ch->mNumPositionKeys, tick, rest_position, lerp3);
-            const aiQuaternion q = sample_keys(ch->mRotationKeys, ch->mNumRotationKeys, tick, rest_rotation, slerp);
-            const aiVector3D s = sample_keys(ch->mScalingKeys, ch->mNumScalingKeys, tick, rest_scale, lerp3);
+            const aiVector3D p = sample_keys(ch->mPositionKeys, ch->mNumPositionKeys, tick, rest[n].position, lerp3);
+            const aiQuaternion q = sample_keys(ch->mRotationKeys, ch->mNumRotationKeys, tick, rest[n].rotation, slerp);
+            const aiVector3D s = sample_keys(ch->mScalingKeys, ch->mNumScalingKeys, tick, rest[n].scale, lerp3);
             const Eigen::Affine3d local = to_affine(aiMatrix4x4(s, q, p));
             if (!finite(local)) fail(out.source, "animation {} gives node {} a transform that is not finite", printable(out.animation), printable(out.nodes[n].name));
             locals.push_back(local);

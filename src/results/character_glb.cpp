@@ -34,6 +34,39 @@ std::vector<Eigen::Isometry3d> locals(const AnimatedSkin& skin, const std::vecto
     return out;
 }
 
+// The skin attributes (four joints and weights per vertex), the triangles and the mesh around a
+// primitive whose POSITION and NORMAL are set; returns the mesh's index.
+int skinned_mesh(GlbBuilder& glb, tinygltf::Model& model, tinygltf::Primitive p, const std::uint16_t* joints, const float* weights,
+                 const TriangleMesh& surface, const char* name) {
+    const std::size_t count = surface.vertices.size();
+    p.attributes["JOINTS_0"] = glb.accessor(glb.view(joints, count * 8, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                            TINYGLTF_TYPE_VEC4, count);
+    p.attributes["WEIGHTS_0"] = glb.accessor(glb.view(weights, count * 16, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                             TINYGLTF_TYPE_VEC4, count);
+    p.indices = glb.indices(surface);
+    p.mode = TINYGLTF_MODE_TRIANGLES;
+    tinygltf::Mesh mesh;
+    mesh.name = name;
+    mesh.primitives.push_back(p);
+    model.meshes.push_back(mesh);
+    return int(model.meshes.size()) - 1;
+}
+
+// One LINEAR sampler of `count` keys at the times of accessor `input`, and its channel.
+void add_channel(GlbBuilder& glb, tinygltf::Animation& take, int input, int node, const char* path, const std::vector<float>& values, std::size_t count) {
+    tinygltf::AnimationSampler sampler;
+    sampler.input = input;
+    sampler.output = glb.accessor(glb.view(values.data(), values.size() * 4, 0), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                  std::string(path) == "rotation" ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3, count);
+    sampler.interpolation = "LINEAR";
+    take.samplers.push_back(sampler);
+    tinygltf::AnimationChannel channel;
+    channel.sampler = int(take.samplers.size()) - 1;
+    channel.target_node = node;
+    channel.target_path = path;
+    take.channels.push_back(channel);
+}
+
 int mesh_primitive(GlbBuilder& glb, tinygltf::Model& model, const AnimatedSkin& skin) {
     TriangleMesh surface{skin.vertices, skin.triangles};
     tinygltf::Primitive p;
@@ -47,17 +80,7 @@ int mesh_primitive(GlbBuilder& glb, tinygltf::Model& model, const AnimatedSkin& 
             joints.push_back(std::uint16_t(skin.weights[v][std::size_t(k)] > 0 ? skin.joints[v][std::size_t(k)] : 0));
             weights.push_back(skin.weights[v][std::size_t(k)]);
         }
-    p.attributes["JOINTS_0"] = glb.accessor(glb.view(joints.data(), joints.size() * 2, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
-                                            TINYGLTF_TYPE_VEC4, skin.vertices.size());
-    p.attributes["WEIGHTS_0"] = glb.accessor(glb.view(weights.data(), weights.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                             TINYGLTF_TYPE_VEC4, skin.vertices.size());
-    p.indices = glb.indices(surface);
-    p.mode = TINYGLTF_MODE_TRIANGLES;
-    tinygltf::Mesh mesh;
-    mesh.name = "body";
-    mesh.primitives.push_back(p);
-    model.meshes.push_back(mesh);
-    return int(model.meshes.size()) - 1;
+    return skinned_mesh(glb, model, p, joints.data(), weights.data(), surface, "body");
 }
 
 // One sampler per joint and path: a key per frame.
@@ -80,21 +103,8 @@ void add_animation(GlbBuilder& glb, tinygltf::Model& model, const AnimatedSkin& 
             translation.insert(translation.end(), {float(t.x()), float(t.y()), float(t.z())});
             rotation.insert(rotation.end(), {float(q.x()), float(q.y()), float(q.z()), float(q.w())});
         }
-        for (const auto* path : {"translation", "rotation"}) {
-            const bool is_t = std::string(path) == "translation";
-            const std::vector<float>& values = is_t ? translation : rotation;
-            tinygltf::AnimationSampler sampler;
-            sampler.input = input;
-            sampler.output = glb.accessor(glb.view(values.data(), values.size() * 4, 0), TINYGLTF_COMPONENT_TYPE_FLOAT, is_t ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
-                                          times.size());
-            sampler.interpolation = "LINEAR";
-            take.samplers.push_back(sampler);
-            tinygltf::AnimationChannel channel;
-            channel.sampler = int(take.samplers.size()) - 1;
-            channel.target_node = first_joint_node + int(j);
-            channel.target_path = path;
-            take.channels.push_back(channel);
-        }
+        add_channel(glb, take, input, first_joint_node + int(j), "translation", translation, times.size());
+        add_channel(glb, take, input, first_joint_node + int(j), "rotation", rotation, times.size());
     }
     model.animations.push_back(take);
 }
@@ -229,17 +239,7 @@ int raw_mesh(GlbBuilder& glb, tinygltf::Model& model, const CharacterFile& file,
                                             TINYGLTF_TYPE_VEC3, skin.positions.size(), lo, hi);
     p.attributes["NORMAL"] = glb.accessor(glb.view(normals.data(), normals.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
                                           TINYGLTF_TYPE_VEC3, skin.positions.size());
-    p.attributes["JOINTS_0"] = glb.accessor(glb.view(skin.joints.data(), skin.joints.size() * 8, TINYGLTF_TARGET_ARRAY_BUFFER),
-                                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4, skin.joints.size());
-    p.attributes["WEIGHTS_0"] = glb.accessor(glb.view(skin.weights.data(), skin.weights.size() * 16, TINYGLTF_TARGET_ARRAY_BUFFER),
-                                             TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, skin.weights.size());
-    p.indices = glb.indices(TriangleMesh{skin.positions, file.triangles});
-    p.mode = TINYGLTF_MODE_TRIANGLES;
-    tinygltf::Mesh mesh;
-    mesh.name = "character";
-    mesh.primitives.push_back(p);
-    model.meshes.push_back(mesh);
-    return int(model.meshes.size()) - 1;
+    return skinned_mesh(glb, model, p, skin.joints.front().data(), skin.weights.front().data(), TriangleMesh{skin.positions, file.triangles}, "character");
 }
 
 // Node 0: the file's units and axes to glTF's, with the floor lift; nodes 1..: the file's.
@@ -291,20 +291,9 @@ void edited_animation(GlbBuilder& glb, tinygltf::Model& model, const CharacterFi
         node.translation = {t[0], t[1], t[2]};
         node.rotation = {r[0], r[1], r[2], r[3]};
         node.scale = {s[0], s[1], s[2]};
-        for (const auto& [path, values] : std::vector<std::pair<const char*, const std::vector<float>*>>{{"translation", &t}, {"rotation", &r}, {"scale", &s}}) {
-            tinygltf::AnimationSampler sampler;
-            sampler.input = input;
-            const bool rotation = std::string(path) == "rotation";
-            sampler.output = glb.accessor(glb.view(values->data(), values->size() * 4, 0), TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                          rotation ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3, sources.size());
-            sampler.interpolation = "LINEAR";
-            take.samplers.push_back(sampler);
-            tinygltf::AnimationChannel channel;
-            channel.sampler = int(take.samplers.size()) - 1;
-            channel.target_node = int(n) + 1;
-            channel.target_path = path;
-            take.channels.push_back(channel);
-        }
+        add_channel(glb, take, input, int(n) + 1, "translation", t, sources.size());
+        add_channel(glb, take, input, int(n) + 1, "rotation", r, sources.size());
+        add_channel(glb, take, input, int(n) + 1, "scale", s, sources.size());
     }
     model.animations.push_back(take);
 }

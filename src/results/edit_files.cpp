@@ -347,14 +347,14 @@ std::vector<std::string> write_edited_characters(const fs::path& folder, const s
     for (std::size_t o = 0; o < names.size(); ++o) {
         const CharacterBody* character = sources[o]->character();
         if (!character) continue;
+        const UnitsAndAxes& units = sources[o]->spec().units;
         std::vector<int> from;
         std::vector<Eigen::Isometry3d> edits;
         for (const ObjectFrameEdit& e : *frames[o]) {
             from.push_back(e.source);
-            edits.push_back(edit_in_file(e, sources[o]->spec().units));
+            edits.push_back(edit_in_file(e, units));
         }
         const std::string name = names[o] + ".glb";
-        const UnitsAndAxes& units = sources[o]->spec().units;
         if (write_edited_character_glb(character_file(*character), units, from, edits, sources[o]->spec().fps, folder / name))
             written.push_back(name);
         else
