@@ -8,6 +8,7 @@
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <cairo.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
@@ -16,6 +17,8 @@
 #include "src/body/skeleton_roles.hpp"
 #include "src/core/error.hpp"
 #include "src/results/glb_builder.hpp"
+#include "src/results/scene_glb.hpp"
+#include "src/scene/segment.hpp"
 #include "support.hpp"
 
 namespace amhv {
@@ -26,7 +29,9 @@ namespace fs = std::filesystem;
 // A square bar 0.1 m wide from y = 0 to y = 1 (glTF: metres, y up) in two bones: "Shoulder" at
 // the origin holds y < 0.5, "Elbow" at y = 0.5 the rest; the animation "bend" turns the elbow
 // about z from 0 to `degrees` over one second.
-void write_arm(const fs::path& file, double degrees, bool two_animations = false, float weight_scale = 1.0f) {
+// `texture`: a material "arm_skin" with that image file as its base colour texture, and texture
+// coordinates u = corner / 4, v = y.
+void write_arm(const fs::path& file, double degrees, bool two_animations = false, float weight_scale = 1.0f, const std::string& texture = "") {
     tinygltf::Model model;
     GlbBuilder glb(model);
     std::vector<float> positions;
@@ -58,6 +63,25 @@ void write_arm(const fs::path& file, double degrees, bool two_animations = false
     p.indices = glb.accessor(glb.view(indices.data(), indices.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                              TINYGLTF_TYPE_SCALAR, indices.size());
     p.mode = TINYGLTF_MODE_TRIANGLES;
+    std::vector<float> uvs;
+    for (int r = 0; r < rings; ++r)
+        for (int c = 0; c < 4; ++c) uvs.insert(uvs.end(), {0.25f * float(c), 1.0f - 0.25f * float(r)});  // glTF's v runs down
+    if (!texture.empty()) {
+        p.attributes["TEXCOORD_0"] = glb.accessor(glb.view(uvs.data(), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                  TINYGLTF_TYPE_VEC2, uvs.size() / 2);
+        tinygltf::Image image;
+        image.uri = texture;
+        model.images.push_back(image);
+        tinygltf::Texture t;
+        t.source = 0;
+        model.textures.push_back(t);
+        tinygltf::Material m;
+        m.name = "arm_skin";
+        m.pbrMetallicRoughness.baseColorFactor = {0.9, 0.7, 0.6, 1.0};
+        m.pbrMetallicRoughness.baseColorTexture.index = 0;
+        model.materials.push_back(m);
+        p.material = 0;
+    }
     tinygltf::Mesh mesh;
     mesh.name = "arm";
     mesh.primitives.push_back(p);
@@ -101,7 +125,7 @@ void write_arm(const fs::path& file, double degrees, bool two_animations = false
     }
     model.asset.version = "2.0";
     tinygltf::TinyGLTF writer;
-    ASSERT_TRUE(writer.WriteGltfSceneToFile(&model, file.string(), true, true, false, true));
+    ASSERT_TRUE(writer.WriteGltfSceneToFile(&model, file.string(), /*embedImages=*/false, true, false, true));
 }
 
 TEST(Character, ABentElbowPutsTheHandWhereTheAngleSays) {
@@ -123,12 +147,106 @@ TEST(Character, ABentElbowPutsTheHandWhereTheAngleSays) {
     const double c = std::cos(std::numbers::pi / 4), s = std::sin(std::numbers::pi / 4);
     EXPECT_NEAR(half.vertices[corner].x(), c * 0.05 - s * 0.5, 1e-6);
     EXPECT_NEAR(half.vertices[corner].y(), 0.5 + s * 0.05 + c * 0.5, 1e-6);
-    // The shoulder's vertices stay.
+    // The shoulder's vertices stay (to a float's precision: skinning runs in floats).
     for (std::size_t v = 0; v < arm.vertices.size(); ++v) {
         if (arm.vertices[v].y() < 0.4) {
-            EXPECT_TRUE(bent.vertices[v].isApprox(arm.vertices[v], 1e-9)) << v;
+            EXPECT_LT((bent.vertices[v] - arm.vertices[v]).norm(), 1e-6) << v;
         }
     }
+}
+
+// scene.glb keeps a character's material and texture: the file's own surface (not the closed,
+// cut parts) per output frame, with the material's colour, the PNG embedded as read, and the
+// texture coordinates as the file gives them; a texture named outside the character's folder is
+// not read (the material keeps its colour).
+TEST(Character, SceneGlbCarriesTheCharactersMaterialAndTexture) {
+    test::TempDir tmp;
+    cairo_surface_t* image = cairo_image_surface_create(CAIRO_FORMAT_RGB24, 4, 4);
+    ASSERT_EQ(cairo_surface_write_to_png(image, (tmp.path() / "skin.png").c_str()), CAIRO_STATUS_SUCCESS);
+    cairo_surface_destroy(image);
+    fs::create_directories(tmp.path() / "inner");
+    write_arm(tmp.path() / "arm.glb", 90, false, 1.0f, "skin.png");
+    write_arm(tmp.path() / "inner" / "outside.glb", 90, false, 1.0f, "../skin.png");
+    const CharacterFile outside = read_character(tmp.path() / "inner" / "outside.glb", std::nullopt, 10.0);
+    const auto skin = std::find_if(outside.materials.begin(), outside.materials.end(), [](const CharacterMaterial& m) { return m.name == "arm_skin"; });
+    ASSERT_NE(skin, outside.materials.end());
+    EXPECT_TRUE(skin->texture.empty());
+    EXPECT_EQ(skin->texture_note, "is not a file inside the character's folder");
+
+    // The shipped character with texture coordinates (u, v) = (x, y) of its bind pose and the material.
+    tinygltf::Model human;
+    tinygltf::TinyGLTF gltf;
+    std::string error, warning;
+    ASSERT_TRUE(gltf.LoadBinaryFromFile(&human, &error, &warning, (test::source_dir() / "data/characters/cmu_18_01.glb").string())) << error;
+    {
+        tinygltf::Primitive& p = human.meshes.at(0).primitives.at(0);
+        const tinygltf::Accessor& a = human.accessors[std::size_t(p.attributes.at("POSITION"))];
+        const auto* xyz = reinterpret_cast<const float*>(human.buffers[0].data.data() + human.bufferViews[std::size_t(a.bufferView)].byteOffset + a.byteOffset);
+        std::vector<float> uvs;
+        for (std::size_t v = 0; v < a.count; ++v) uvs.insert(uvs.end(), {xyz[3 * v], xyz[3 * v + 1]});
+        GlbBuilder builder(human);
+        p.attributes["TEXCOORD_0"] = builder.accessor(builder.view(uvs.data(), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                      TINYGLTF_TYPE_VEC2, a.count);
+        tinygltf::Image png;
+        png.uri = "skin.png";
+        human.images.push_back(png);
+        tinygltf::Texture t;
+        t.source = 0;
+        human.textures.push_back(t);
+        tinygltf::Material m;
+        m.name = "arm_skin";
+        m.pbrMetallicRoughness.baseColorFactor = {0.9, 0.7, 0.6, 1.0};
+        m.pbrMetallicRoughness.baseColorTexture.index = 0;
+        human.materials.push_back(m);
+        p.material = 0;
+        ASSERT_TRUE(gltf.WriteGltfSceneToFile(&human, (tmp.path() / "human.glb").string(), false, true, false, true));
+    }
+    SceneObject spec;
+    spec.name = "A";
+    spec.character = (tmp.path() / "human.glb").string();
+    spec.units = {1.0, UpAxis::Y};
+    spec.fps = 120;
+    ObjectSource source(spec);
+    std::vector<ObjectFrameEdit> frames(3);
+    for (int k = 0; k < 3; ++k) frames[std::size_t(k)].source = 100 + 5 * k, frames[std::size_t(k)].translation = {1.0, 2.0}, frames[std::size_t(k)].yaw = 0.5;
+    const fs::path glb = tmp.path() / "scene.glb";
+    write_scene_glb(glb, {GlbObject{"A", &source, &frames}}, 120.0);
+    const auto valid = test::validate_gltf(glb);
+    EXPECT_NE(valid.output.find(": 0 errors"), std::string::npos) << valid.output;
+
+    tinygltf::Model model;
+    ASSERT_TRUE(gltf.LoadBinaryFromFile(&model, &error, &warning, glb.string())) << error;
+    ASSERT_EQ(model.images.size(), 1u);
+    EXPECT_EQ(model.images[0].mimeType, "image/png");
+    const auto& view = model.bufferViews[std::size_t(model.images[0].bufferView)];
+    EXPECT_EQ(std::string(reinterpret_cast<const char*>(model.buffers[0].data.data() + view.byteOffset), view.byteLength),
+              test::read_text(tmp.path() / "skin.png"));
+    ASSERT_EQ(model.meshes.size(), 3u);
+    const tinygltf::Primitive& p = model.meshes[2].primitives.at(0);
+    const tinygltf::Material& material = model.materials.at(std::size_t(p.material));
+    EXPECT_EQ(material.name, "A arm_skin");
+    EXPECT_NEAR(material.pbrMetallicRoughness.baseColorFactor[1], 0.7, 1e-6);
+    EXPECT_EQ(material.pbrMetallicRoughness.baseColorTexture.index, 0);
+    // Every vertex of the file, its UV as written, its position the skinned one moved by the edit.
+    const CharacterFile file = read_character(tmp.path() / "human.glb", std::nullopt, std::nullopt);
+    const tinygltf::Accessor& uv = model.accessors[std::size_t(p.attributes.at("TEXCOORD_0"))];
+    const tinygltf::Accessor& position = model.accessors[std::size_t(p.attributes.at("POSITION"))];
+    ASSERT_EQ(uv.count, file.vertices.size());
+    ASSERT_EQ(position.count, file.vertices.size());
+    const auto floats = [&](const tinygltf::Accessor& a) {
+        return reinterpret_cast<const float*>(model.buffers[0].data.data() + model.bufferViews[std::size_t(a.bufferView)].byteOffset + a.byteOffset);
+    };
+    const std::vector<Vec3> skinned = skin_character_vertices(file, 110);
+    double worst_uv = 0, worst_position = 0;
+    for (std::size_t v = 0; v < file.vertices.size(); ++v) {
+        worst_uv = std::max({worst_uv, std::abs(floats(uv)[2 * v] - file.vertices[v].x()), std::abs(floats(uv)[2 * v + 1] - file.vertices[v].y())});
+        const Vec3 s = to_scene_point(skinned[v], spec.units);
+        const Eigen::Vector2d xy = Eigen::Rotation2Dd(0.5) * Eigen::Vector2d(s.x(), s.y()) + Eigen::Vector2d(1.0, 2.0);
+        const Vec3 got(floats(position)[3 * v], -floats(position)[3 * v + 2], floats(position)[3 * v + 1]);  // glTF's y up back to z up
+        worst_position = std::max(worst_position, (got - Vec3(xy.x(), xy.y(), s.z())).norm());
+    }
+    EXPECT_LT(worst_uv, 1e-6);
+    EXPECT_LT(worst_position, 1e-5);
 }
 
 // FBX through assimp's own exporter (ASCII FBX): the skin and the hierarchy survive, so the rest

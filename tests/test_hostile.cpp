@@ -563,7 +563,7 @@ TEST(HostileCorpus, DISABLED_WritesFuzzSeeds) {
     ASSERT_NE(root, nullptr) << "set AMHV_FUZZ_SEEDS to the corpus folder";
     const std::map<std::string, std::string> by_extension{{".bvh", "bvh"}, {".obj", "mesh_obj"}, {".ply", "mesh_ply"}, {".off", "mesh_off"},
                                                           {".stl", "mesh_stl"}, {".mtl", "mtl"}, {".toml", "scene"}, {".vdb", "group_vdb"},
-                                                          {".json", "shard"}};
+                                                          {".json", "shard"}, {".gltf", "character"}};
     auto seed = [&](const std::string& target, const std::string& name, const std::string& bytes) {
         fs::create_directories(fs::path(root) / target);
         std::ofstream(fs::path(root) / target / name, std::ios::binary) << bytes;

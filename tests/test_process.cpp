@@ -1,18 +1,23 @@
 // The process's memory (core/process.hpp): large blocks from the replaced operator new and from the
 // volumes' zeroed allocator carry the huge-page advice, seen as "hg" in the VmFlags of their
 // mapping in /proc/self/smaps (set whether or not the kernel then finds huge pages for it).
+#include <csignal>
 #include <cstdint>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "src/core/amhv.hpp"
+#include "src/core/contained.hpp"
+#include "src/core/error.hpp"
 #include "src/core/sanitizers.hpp"
 #include "src/core/process.hpp"
+#include "support.hpp"
 
 namespace amhv {
 namespace {
@@ -68,6 +73,41 @@ TEST(Process, ZeroedVolumeBlocksAreAdvisedHugePagesAndZero) {
     mask.resize(8 * kHugePageBytes / 4);
     EXPECT_TRUE(advised(vm_flags_at(aligned_inside(mask.data()))));
     for (std::size_t w = 0; w < mask.size(); w += 4093) ASSERT_EQ(mask[w], 0u) << "word " << w;
+}
+
+// Work run contained (core/contained.hpp): its answer comes back whole, its amhv::Error as itself,
+// and a crash, a hang or an exception from a library as one line naming the file; amhv goes on.
+TEST(Contained, AnswersErrorsAndCrashesComeBackAsOneLine) {
+    std::string big(3 << 20, 'x');  // past a pipe's buffer: the parent reads while the child writes
+    big[12345] = 'y';
+    EXPECT_EQ(run_contained("f.glb", [&] { return big; }), big);
+    auto message = [](const std::function<std::string()>& work, ContainLimits limits = {}) {
+        try {
+            run_contained("f.glb", work, limits);
+        } catch (const Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("(no error)");
+    };
+    EXPECT_EQ(message([]() -> std::string { fail("f.glb", "holds no animation"); }), "f.glb: holds no animation");
+    EXPECT_EQ(message([]() -> std::string { throw std::runtime_error("DeadlyImportError: secret text"); }),
+              "f.glb: cannot be read: the reader failed on it");
+    const std::string crash = message([]() -> std::string {
+        std::raise(SIGSEGV);
+        return "";
+    });
+    // (Under AddressSanitizer its handler reports the fault and exits instead.)
+    EXPECT_EQ(crash.rfind(test::kAddressSanitizer ? "f.glb: cannot be read: the reader (assimp) "
+                                            : "f.glb: cannot be read: the reader (assimp) crashed on it with a segmentation fault (SIGSEGV)",
+                          0),
+              0u)
+        << crash;
+    const std::string hang = message(
+        []() -> std::string {
+            for (;;) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        },
+        ContainLimits{1});
+    EXPECT_EQ(hang, "f.glb: its reader took over 1 s and was stopped");
 }
 
 }  // namespace

@@ -4,6 +4,11 @@
 // reference in the same run. Reports frames/s and voxel-frames/s (grid voxels x frames per second)
 // with mean, median and spread over repetitions.
 //
+// B1c - the same 120 frames as the shipped character (data/characters/cmu_18_01.glb, the CC0 human
+// driven by 18_01, about 16k vertices): voxelising the frames skinned and posed beforehand
+// (quantised and voxelised), against skinning them on the device (VulkanSkinner), posing the
+// parts, quantising and voxelising, at 10 mm and 5 mm.
+//
 // The repetitions of all four runs go in random interleaved order (Google Benchmark's
 // --benchmark_enable_random_interleaving, on by default here): the VMs this runs on change speed
 // in phases of tens of seconds, and run one after another the Vulkan path and the reference would
@@ -20,7 +25,10 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
+#include "src/body/character_body.hpp"
 #include "src/body/skeleton_body.hpp"
+#include "src/body/skin_vulkan.hpp"
+#include "src/core/grid.hpp"
 #include "src/voxelise/voxelise.hpp"
 #include "src/voxelise/voxelise_vulkan.hpp"
 #include "src/io/bvh.hpp"
@@ -85,7 +93,95 @@ void B1_voxelise_cpu_reference(benchmark::State& state) {
     report(state, input, voxeliser.name());
 }
 
+// The shipped character, frames 1..120 (the take's 1..120 as the capsule bodies above), in the
+// scene's axes (glTF: y up).
+struct CharacterFrames {
+    std::shared_ptr<const CharacterBody> body;
+    UnitsAndAxes units{1.0, UpAxis::Y};
+    std::vector<SkinFrame> palettes;
+};
+
+const CharacterFrames& character_frames() {
+    static CharacterFrames frames = [] {
+        CharacterFrames c;
+        auto file = std::make_shared<const CharacterFile>(
+            read_character(std::string(AMHV_SOURCE_DIR) + "/data/characters/cmu_18_01.glb", std::nullopt, std::nullopt));
+        c.body = build_character_body(file);
+        for (int f = 1; f <= 120; ++f) c.palettes.push_back(skin_frame(*file, f, c.units));
+        return c;
+    }();
+    return frames;
+}
+
+// Each frame's parts as one mesh (every part is closed: the non-zero winding rule takes the union).
+std::vector<MeshFrame> posed_frames(const std::vector<float>& skinned) {
+    const CharacterFrames& c = character_frames();
+    const std::size_t n = character_skin(*c.body).count();
+    std::vector<MeshFrame> out(c.palettes.size());
+    for (std::size_t f = 0; f < out.size(); ++f) {
+        out[f].source = fmt::format("character frame {}", f + 1);
+        for (const BodyPart& part : character_body_parts(*c.body, skinned_points(skinned, n, f, c.palettes[f]), int(f + 1))) out[f].mesh.append(part.mesh);
+    }
+    return out;
+}
+
+VoxelGrid character_grid(const std::vector<MeshFrame>& frames, double voxel) {
+    Box3 bounds;
+    for (const MeshFrame& f : frames) bounds.extend(f.mesh.bounds());
+    return grid_covering(bounds, voxel, "character");
+}
+
+std::vector<const MeshFrame*> pointers(const std::vector<MeshFrame>& frames) {
+    std::vector<const MeshFrame*> out;
+    for (const MeshFrame& f : frames) out.push_back(&f);
+    return out;
+}
+
+void B1c_character_voxelise_vulkan(benchmark::State& state) {
+    const CharacterFrames& c = character_frames();
+    std::vector<float> skinned;
+    CpuSkinner().skin(character_skin(*c.body), c.palettes, skinned);
+    const std::vector<MeshFrame> frames = posed_frames(skinned);
+    const VoxelGrid grid = character_grid(frames, double(state.range(0)) / 1000.0);
+    gpu::VulkanVoxeliser voxeliser(context());
+    VoxelisationInput input;
+    auto quantise_and_voxelise = [&] {
+        input = prepare_voxelisation(pointers(frames), grid);
+        return voxelise(input, voxeliser);
+    };
+    for (int call = 0; call < 2; ++call) quantise_and_voxelise();
+    for (auto _ : state) {
+        Amhv volume = quantise_and_voxelise();
+        benchmark::DoNotOptimize(volume.mask().data());
+    }
+    report(state, input, voxeliser.name() + " (quantised, voxelised)");
+}
+
+void B1c_character_skin_and_voxelise_vulkan(benchmark::State& state) {
+    const CharacterFrames& c = character_frames();
+    std::vector<float> skinned;
+    CpuSkinner().skin(character_skin(*c.body), c.palettes, skinned);
+    const VoxelGrid grid = character_grid(posed_frames(skinned), double(state.range(0)) / 1000.0);
+    gpu::VulkanSkinner skinner(context());
+    gpu::VulkanVoxeliser voxeliser(context());
+    VoxelisationInput input;
+    auto skin_and_voxelise = [&] {
+        skinner.skin(character_skin(*c.body), c.palettes, skinned);
+        const std::vector<MeshFrame> frames = posed_frames(skinned);
+        input = prepare_voxelisation(pointers(frames), grid);
+        return voxelise(input, voxeliser);
+    };
+    for (int call = 0; call < 2; ++call) skin_and_voxelise();
+    for (auto _ : state) {
+        Amhv volume = skin_and_voxelise();
+        benchmark::DoNotOptimize(volume.mask().data());
+    }
+    report(state, input, skinner.name() + " (skinned, posed, quantised, voxelised)");
+}
+
 // Arguments: voxel edge in millimetres.
+BENCHMARK(B1c_character_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
+BENCHMARK(B1c_character_skin_and_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
 BENCHMARK(B1_voxelise_vulkan)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
 BENCHMARK(B1_voxelise_cpu_reference)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(9)->UseRealTime();
 

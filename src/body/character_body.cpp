@@ -14,24 +14,11 @@ namespace amhv {
 std::vector<Vec3> skin_character_vertices(const CharacterFile& character, int frame) {
     if (frame < 0 || frame >= character.frame_count())
         fail(character.source, "has no frame {} (animation {}: frames 0..{})", frame, printable(character.animation), character.frame_count() - 1);
-    const std::vector<Eigen::Affine3d> globals = character.globals(frame);
-    std::vector<Eigen::Affine3d> skin(character.bones.size());
-    for (std::size_t b = 0; b < character.bones.size(); ++b) skin[b] = globals[std::size_t(character.bones[b].node)] * character.bones[b].offset;
-    std::vector<Vec3> out(character.vertices.size());
-    for (std::size_t v = 0; v < character.vertices.size(); ++v) {
-        const Vec3& rest = character.vertices[v];
-        if (character.rigid_node[v] >= 0) {
-            out[v] = globals[std::size_t(character.rigid_node[v])] * rest;
-            continue;
-        }
-        Vec3 p = Vec3::Zero();
-        for (int k = 0; k < 4; ++k) {
-            const int b = character.vertex_bones[v][std::size_t(k)];
-            if (b >= 0) p += character.vertex_weights[v][std::size_t(k)] * (skin[std::size_t(b)] * rest);
-        }
-        out[v] = p;
-    }
-    return out;
+    const SkinVertices vertices = skin_vertices(character);
+    const SkinFrame pose = skin_frame(character, frame, UnitsAndAxes{});
+    std::vector<float> skinned(3 * vertices.count());
+    skin_reference(vertices, pose.palette, 0, vertices.count(), skinned.data());
+    return skinned_points(skinned, vertices.count(), 0, pose);
 }
 
 TriangleMesh skin_character(const CharacterFile& character, int frame) { return {skin_character_vertices(character, frame), character.triangles}; }
@@ -54,6 +41,7 @@ std::string rig_joint_name(const std::string& name) {
 
 struct CharacterBody {
     std::shared_ptr<const CharacterFile> file;
+    SkinVertices skin;
     std::vector<std::uint32_t> welded;                 // per welded vertex, the file vertex it is
     std::vector<std::vector<std::uint32_t>> derived;   // per vertex past the welded ones: the loop it is the mean of
     std::vector<SurfacePart> parts;
@@ -190,6 +178,7 @@ std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const 
                                                           const std::map<std::string, std::string>& joint_roles) {
     auto body = std::make_shared<CharacterBody>();
     body->file = std::move(file);
+    body->skin = skin_vertices(*body->file);
     map_rig(*body, joint_roles);
     close_and_split(*body);
     return body;
@@ -197,11 +186,20 @@ std::shared_ptr<const CharacterBody> build_character_body(std::shared_ptr<const 
 
 const CharacterMapping& character_mapping(const CharacterBody& body) { return body.mapping; }
 const CharacterFile& character_file(const CharacterBody& body) { return *body.file; }
+const SkinVertices& character_skin(const CharacterBody& body) { return body.skin; }
 
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, int frame, const UnitsAndAxes& units) {
-    const std::vector<Vec3> skinned = skin_character_vertices(*body.file, frame);
+    if (frame < 0 || frame >= body.file->frame_count())
+        fail(body.file->source, "has no frame {} (animation {}: frames 0..{})", frame, printable(body.file->animation), body.file->frame_count() - 1);
+    const SkinFrame pose = skin_frame(*body.file, frame, units);
+    std::vector<float> skinned(3 * body.skin.count());
+    skin_reference(body.skin, pose.palette, 0, body.skin.count(), skinned.data());
+    return character_body_parts(body, skinned_points(skinned, body.skin.count(), 0, pose), frame);
+}
+
+std::vector<BodyPart> character_body_parts(const CharacterBody& body, const std::vector<Vec3>& skinned, int frame) {
     std::vector<Vec3> points(body.welded.size());
-    for (std::size_t v = 0; v < body.welded.size(); ++v) points[v] = to_scene_point(skinned[body.welded[v]], units);
+    for (std::size_t v = 0; v < body.welded.size(); ++v) points[v] = skinned[body.welded[v]];
     return posed_parts(body.parts, std::move(points), body.derived, body.file->source, frame, "a vertex that is not finite");
 }
 

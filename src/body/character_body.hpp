@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "src/body/skeleton_body.hpp"
+#include "src/body/skinning.hpp"
 #include "src/core/geometry.hpp"
 #include "src/io/character_file.hpp"
 #include "src/io/mesh_sequence.hpp"
@@ -18,7 +19,8 @@ namespace amhv {
 
 // Every vertex of the file at `frame`, in the file's units and axes: per vertex the sum over its
 // bones of weight x (the bone node's global transform x its offset) x the bind position, bones in
-// the order read (largest weight first); a vertex of an unskinned mesh follows its node.
+// the order read (largest weight first); a vertex of an unskinned mesh follows its node. Skinned
+// by skin_reference (src/body/skinning.hpp), as every backend skins.
 std::vector<Vec3> skin_character_vertices(const CharacterFile& character, int frame);
 TriangleMesh skin_character(const CharacterFile& character, int frame);
 
@@ -42,9 +44,15 @@ struct CharacterMapping {
 };
 const CharacterMapping& character_mapping(const CharacterBody& body);
 const CharacterFile& character_file(const CharacterBody& body);
+// The character's vertices as a Skinner takes them (built once).
+const SkinVertices& character_skin(const CharacterBody& body);
 
-// The body at animation frame `frame` split by part (body_part_names' order), scene axes, metres.
+// The body at animation frame `frame` split by part (body_part_names' order), scene axes, metres,
+// skinned by the CPU reference.
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, int frame, const UnitsAndAxes& units);
+// The same from the file's every vertex at that frame already skinned into the scene (a Skinner's
+// output through skinned_points).
+std::vector<BodyPart> character_body_parts(const CharacterBody& body, const std::vector<Vec3>& skinned, int frame);
 // Per frame, eye and gaze from the head, as for BVH takes.
 std::vector<TrackSample> character_track(const CharacterBody& body, const UnitsAndAxes& units);
 

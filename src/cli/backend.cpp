@@ -1,5 +1,6 @@
 #include "src/cli/backend.hpp"
 
+#include "src/body/skin_vulkan.hpp"
 #include "src/core/error.hpp"
 #include "src/sweep/sweep_vulkan.hpp"
 #include "src/voxelise/voxelise_vulkan.hpp"
@@ -39,6 +40,14 @@ Sweeper& Backend::sweeper() {
         else sweeper_ = std::make_unique<ReferenceSweeper>();
     }
     return *sweeper_;
+}
+
+Skinner& Backend::skinner() {
+    if (!skinner_) {
+        if (context_) skinner_ = std::make_unique<gpu::VulkanSkinner>(*context_);
+        else skinner_ = std::make_unique<CpuSkinner>();
+    }
+    return *skinner_;
 }
 
 }  // namespace amhv::cli

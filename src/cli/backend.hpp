@@ -1,12 +1,13 @@
 #pragma once
 // `--backend vulkan|cpu` and `--device N`, shared by the subcommands: the Vulkan context with the
-// GPU voxeliser and sweeper, or the plain CPU references. Each stage's pipeline is only built when
+// GPU voxeliser, sweeper and skinner, or the plain CPU references. Each stage's pipeline is only built when
 // a subcommand first asks for it.
 #include <memory>
 
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "src/body/skinning.hpp"
 #include "src/voxelise/voxelise.hpp"
 #include "src/gpu/context.hpp"
 #include "src/sweep/problem.hpp"
@@ -23,12 +24,14 @@ public:
 
     Voxeliser& voxeliser();
     Sweeper& sweeper();
+    Skinner& skinner();
     const std::string& device() const { return device_; }  // "name (type, driver)", or "cpu"
 
 private:
     std::unique_ptr<gpu::Context> context_;  // null for cpu
     std::unique_ptr<Voxeliser> voxeliser_;
     std::unique_ptr<Sweeper> sweeper_;
+    std::unique_ptr<Skinner> skinner_;
     std::string device_ = "cpu";
 };
 

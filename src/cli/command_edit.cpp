@@ -46,7 +46,7 @@ void run_edit(const EditArguments& args) {
         scene.b = scene.object(scene.b.name);
     }
     Backend backend(args.backend, args.device);
-    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device()};
+    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);
     if (!args.options.from_sweep.empty()) inputs.emplace_back(args.options.from_sweep);
     StagedOutput out(args.out, inputs);

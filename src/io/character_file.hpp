@@ -23,6 +23,7 @@ namespace amhv {
 inline constexpr int kMaxCharacterJoints = 1024;
 inline constexpr std::size_t kMaxCharacterVertices = 4'000'000;
 inline constexpr int kMaxCharacterFrames = 100'000;
+inline constexpr std::size_t kMaxCharacterTextureBytes = std::size_t(64) << 20;
 
 struct CharacterNode {
     std::string name;
@@ -38,6 +39,17 @@ struct CharacterBone {
     Eigen::Affine3d offset = Eigen::Affine3d::Identity();
 };
 
+// A material of the character's meshes, as scene.glb writes it back: its base colour and its base
+// colour texture (PNG or JPEG bytes, embedded in the file or a file inside the character's folder).
+struct CharacterMaterial {
+    std::string name;
+    std::array<double, 4> colour{0.8, 0.8, 0.8, 1.0};  // linear RGBA
+    std::string texture_name;            // as the file names it; empty: none
+    std::string texture_mime;            // "image/png" or "image/jpeg" when the texture is kept
+    std::vector<unsigned char> texture;  // its bytes
+    std::string texture_note;            // why a named texture was not kept ("lies outside ...")
+};
+
 struct CharacterFile {
     std::string source;
     std::vector<CharacterNode> nodes;
@@ -47,6 +59,10 @@ struct CharacterFile {
     std::vector<std::array<int, 4>> vertex_bones;         // into bones; -1: unused slot
     std::vector<std::array<double, 4>> vertex_weights;    // summing to 1
     std::vector<int> rigid_node;                          // per vertex of an unskinned mesh: the node it rides on; else -1
+    std::vector<std::array<float, 2>> uvs;                // per vertex: texture coordinates (assimp's: v up), (0, 0) where none
+    bool has_uvs = false;                                 // some mesh has texture coordinates
+    std::vector<CharacterMaterial> materials;
+    std::vector<int> triangle_material;                   // per triangle, into materials
     std::vector<std::string> animations;                  // every animation's name, in the file's order
     std::string animation;                                // the one sampled
     double fps = 0;

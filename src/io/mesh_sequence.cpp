@@ -45,9 +45,7 @@ UpAxis parse_up_axis(const std::string& text, const std::string& what) {
 }
 
 bool AxisMap::reflects() const {
-    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    for (int c = 0; c < 3; ++c) m(c, source[std::size_t(c)]) = sign[std::size_t(c)];
-    return m.determinant() < 0;
+    return matrix().determinant() < 0;
 }
 
 std::string AxisMap::describe() const {

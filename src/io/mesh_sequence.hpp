@@ -21,6 +21,12 @@ struct AxisMap {
     std::array<int, 3> sign{1, 1, 1};
     bool reflects() const;
     Vec3 apply(const Vec3& v) const { return {sign[0] * v[source[0]], sign[1] * v[source[1]], sign[2] * v[source[2]]}; }
+    // The map as a matrix: column c is apply(unit c).
+    Eigen::Matrix3d matrix() const {
+        Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+        for (int r = 0; r < 3; ++r) m(r, source[std::size_t(r)]) = sign[std::size_t(r)];
+        return m;
+    }
     std::string describe() const;  // "x,-z,y"
 };
 // The map `up` stands for: the file's up axis becomes z, right-handedness kept.

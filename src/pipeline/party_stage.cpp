@@ -281,7 +281,7 @@ PartyEdit edit_party_into(const Scene& scene, Backends& backends, const fs::path
         fail(scene.file.string(), "--from-sweep reads a two-object sweep; a scene of {} objects sweeps each object against the ones placed before it, "
              "so it is edited in one run", scene.objects.size());
     std::vector<std::unique_ptr<ObjectSource>> sources;  // in placement order
-    for (const std::string& name : scene.order) sources.push_back(std::make_unique<ObjectSource>(scene.object(name)));
+    for (const std::string& name : scene.order) sources.push_back(std::make_unique<ObjectSource>(scene.object(name), backends.skinner));
     PartyEdit party = edit_party(scene, sources, backends, out, options);
     auto t0 = std::chrono::steady_clock::now();
     const std::vector<PairCheck> checks = check_pairs(party, sources, scene.sampling.voxel, backends.voxeliser);

@@ -220,7 +220,7 @@ results::ShardManifest sweep_shard(const Scene& scene, Backends& backends, const
                                    std::chrono::steady_clock::time_point start) {
     const std::vector<ShardWork> plan = plan_shards(scene, shard.count);
     results::ShardManifest manifest = manifest_header(scene, backends, shard);
-    ObjectSource a(scene.a), b(scene.b);
+    ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
     for (const results::ShardPiece& piece : plan[std::size_t(shard.index - 1)]) {
         const KeySegment& segment = scene.segments[std::size_t(piece.segment - 1)];
         SegmentBuild build = build_segment(scene, segment, a, b, backends.voxeliser);

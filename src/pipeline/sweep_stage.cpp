@@ -178,7 +178,7 @@ SweepStage read_sweep_stage(const fs::path& dir, const Scene& scene) {
 
 SweepStage sweep_scene(const Scene& scene, Backends& backends, const fs::path& out, const SweepStageOptions& options,
                        std::chrono::steady_clock::time_point start) {
-    ObjectSource a(scene.a), b(scene.b);
+    ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
     results::Json json = results::result_header(scene, backends.backend, backends.device);
     SweepStage stage = run_sweep_stage(scene, a, b, backends.voxeliser, backends.sweeper, out, options);
     json["segments"] = stage.segments;
@@ -189,7 +189,7 @@ SweepStage sweep_scene(const Scene& scene, Backends& backends, const fs::path& o
 
 EditResult edit_scene_into(const Scene& scene, Backends& backends, const fs::path& out, const EditRunOptions& options,
                            std::chrono::steady_clock::time_point start) {
-    ObjectSource a(scene.a), b(scene.b);
+    ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
     results::Json json = results::result_header(scene, backends.backend, backends.device);
     json["from_sweep"] = options.from_sweep.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.from_sweep);
 

@@ -48,6 +48,7 @@ struct Backends {
     Voxeliser& voxeliser;
     Sweeper& sweeper;
     std::string backend, device;
+    Skinner* skinner = nullptr;  // characters' frames (null: the CPU reference)
 };
 
 // `amhv sweep`: the sweep stage and result.json into `out`. Returns the stage.

@@ -29,8 +29,7 @@ FileSpaceMove file_space_move(const EditResult& edit, int k, int object, const O
     // (E keeps the lift, a turn about z).
     const ObjectFrameEdit& e = edit.frames[std::size_t(object)][std::size_t(k)];
     const UnitsAndAxes& units = source.spec().units;
-    Eigen::Matrix3d m;
-    for (int c = 0; c < 3; ++c) m.col(c) = units.map().apply(Vec3::Unit(c));
+    const Eigen::Matrix3d m = units.map().matrix();
     const Eigen::Matrix3d turn = m.transpose() * Eigen::AngleAxisd(e.yaw, Vec3::UnitZ()).toRotationMatrix() * m;
     FileSpaceMove move;
     move.linear = turn;

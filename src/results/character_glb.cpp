@@ -244,10 +244,7 @@ int raw_mesh(GlbBuilder& glb, tinygltf::Model& model, const CharacterFile& file,
 
 // Node 0: the file's units and axes to glTF's, with the floor lift; nodes 1..: the file's.
 void edited_nodes(tinygltf::Model& model, const CharacterFile& file, const UnitsAndAxes& units) {
-    const AxisMap map = units.map();
-    Eigen::Matrix3d axes = Eigen::Matrix3d::Zero();
-    for (int i = 0; i < 3; ++i) axes(i, map.source[std::size_t(i)]) = map.sign[std::size_t(i)];
-    Eigen::Matrix3d turn = to_gltf() * axes;
+    Eigen::Matrix3d turn = to_gltf() * units.map().matrix();
     double scale = units.metres_per_unit;
     if (turn.determinant() < 0) turn = -turn, scale = -scale;  // a mirrored file: a negative scale
     const Eigen::Quaterniond q(turn);

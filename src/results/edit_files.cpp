@@ -272,9 +272,7 @@ namespace {
 // z), and the edit moves p_s to R(yaw) p_s + (t, lift); in the file that is p_f -> L p_f + t_f with
 // L = A^T R A and t_f = A^T (t, lift) / u (R l = l: the turn is about z).
 Eigen::Isometry3d edit_in_file(const ObjectFrameEdit& e, const UnitsAndAxes& units) {
-    const AxisMap map = units.map();
-    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-    for (int i = 0; i < 3; ++i) a(i, map.source[std::size_t(i)]) = map.sign[std::size_t(i)];
+    const Eigen::Matrix3d a = units.map().matrix();
     Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
     t.linear() = a.transpose() * Eigen::AngleAxisd(e.yaw, Vec3::UnitZ()).toRotationMatrix() * a;
     t.translation() = a.transpose() * Vec3(e.translation.x(), e.translation.y(), e.lift) / units.metres_per_unit;

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <tiny_gltf.h>
 
+#include "src/body/character_body.hpp"
 #include "src/core/error.hpp"
 #include "src/results/glb_builder.hpp"
 #include "src/io/files.hpp"
@@ -63,6 +64,32 @@ public:
         return materials_[key] = int(model_.materials.size()) - 1;
     }
 
+    // A character's material m (-1: none, the performer's colour): its colour and texture.
+    int character_material(int object, const CharacterFile& file, int m) {
+        if (m < 0) return object;
+        const auto key = std::make_pair(object, m);
+        if (auto known = character_materials_.find(key); known != character_materials_.end()) return known->second;
+        const CharacterMaterial& in = file.materials[std::size_t(m)];
+        tinygltf::Material out;
+        out.name = objects_[std::size_t(object)].name + " " + in.name;
+        out.pbrMetallicRoughness.baseColorFactor = {in.colour.begin(), in.colour.end()};
+        out.pbrMetallicRoughness.metallicFactor = 0.0;
+        out.pbrMetallicRoughness.roughnessFactor = 0.8;
+        if (!in.texture.empty() && file.has_uvs) {
+            tinygltf::Image image;
+            image.name = in.texture_name;
+            image.mimeType = in.texture_mime;
+            image.bufferView = glb_.view(in.texture.data(), in.texture.size(), 0);
+            model_.images.push_back(image);
+            tinygltf::Texture t;
+            t.source = int(model_.images.size()) - 1;
+            model_.textures.push_back(t);
+            out.pbrMetallicRoughness.baseColorTexture.index = int(model_.textures.size()) - 1;
+        }
+        model_.materials.push_back(out);
+        return character_materials_[key] = int(model_.materials.size()) - 1;
+    }
+
 private:
     int texture(const std::filesystem::path& file) {
         if (auto known = textures_.find(file); known != textures_.end()) return known->second;
@@ -85,6 +112,7 @@ private:
     const std::vector<GlbObject>& objects_;
     std::map<std::tuple<int, std::string, std::array<double, 4>, std::string>, int> materials_;
     std::map<std::filesystem::path, int> textures_;
+    std::map<std::pair<int, int>, int> character_materials_;
 };
 
 // The scene position of a source frame's file coordinates at output frame k.
@@ -160,7 +188,46 @@ struct PerformerTrack {
     std::vector<std::array<std::uint32_t, 3>> last_triangles;
     int last_indices = -1;
     bool textured = false;
+    const CharacterFile* character = nullptr;
+    // A character's primitives' shared parts, written at its first frame: per material its
+    // triangles' indices, the texture coordinates (-1: none), the material.
+    std::vector<std::pair<int, int>> character_indices;  // (indices accessor, material)
+    int character_uvs = -1;
 };
+
+// A character's frame: one primitive per material of the file's surface, sharing the frame's
+// positions and normals; texture coordinates and each material's triangles written once for all
+// frames (v flipped: assimp's origin is bottom left, glTF's top left).
+void add_character_primitives(GlbBuilder& glb, AppearanceMaterials& materials, const TriangleMesh& mesh, int o, PerformerTrack& track,
+                              tinygltf::Mesh& m, SceneGlbReport& report) {
+    const CharacterFile& file = *track.character;
+    if (track.character_indices.empty()) {
+        std::map<int, std::vector<std::uint32_t>> by_material;
+        for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+            std::vector<std::uint32_t>& indices = by_material[file.triangle_material[t]];
+            indices.insert(indices.end(), mesh.triangles[t].begin(), mesh.triangles[t].end());
+        }
+        for (const auto& [material, indices] : by_material) {
+            track.character_indices.push_back({glb.indices32(indices), materials.character_material(o, file, material)});
+            ++report.index_accessors;
+        }
+        if (file.has_uvs) {
+            std::vector<float> uvs;
+            for (const auto& uv : file.uvs) uvs.insert(uvs.end(), {uv[0], 1.0f - uv[1]});
+            track.character_uvs = glb.attribute(uvs, 2, false);
+        }
+    }
+    const auto [positions, normals] = glb.vertices(mesh);
+    for (const auto& [indices, material] : track.character_indices) {
+        tinygltf::Primitive primitive;
+        primitive.attributes = {{"POSITION", positions}, {"NORMAL", normals}};
+        if (track.character_uvs >= 0) primitive.attributes["TEXCOORD_0"] = track.character_uvs;
+        primitive.indices = indices;
+        primitive.material = material;
+        primitive.mode = TINYGLTF_MODE_TRIANGLES;
+        m.primitives.push_back(primitive);
+    }
+}
 
 bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbObject& object, const TriangleMesh& mesh, int o, int k,
                     PerformerTrack& track, tinygltf::Mesh& m, SceneGlbReport& report) {
@@ -173,6 +240,10 @@ bool add_frame_mesh(GlbBuilder& glb, AppearanceMaterials& materials, const GlbOb
         return !m.primitives.empty();
     }
     if (mesh.triangles.empty()) return false;
+    if (track.character) {
+        add_character_primitives(glb, materials, mesh, o, track, m, report);
+        return true;
+    }
     if (track.last_indices < 0 || mesh.triangles != track.last_triangles) {
         track.last_indices = glb.indices(mesh);
         track.last_triangles = mesh.triangles;
@@ -199,7 +270,16 @@ GlbMeshes gather_glb_meshes(const std::vector<GlbObject>& objects) {
     GlbMeshes meshes(frames, std::vector<TriangleMesh>(objects.size()));
     for (std::size_t o = 0; o < objects.size(); ++o) {
         if (has_obj_appearance(*objects[o].source)) continue;
-        for (std::size_t k = 0; k < frames; ++k) meshes[k][o] = placed_mesh((*objects[o].frames)[k], *objects[o].source);
+        for (std::size_t k = 0; k < frames; ++k) {
+            const ObjectFrameEdit& e = (*objects[o].frames)[k];
+            if (!objects[o].source->character()) {
+                meshes[k][o] = placed_mesh(e, *objects[o].source);
+                continue;
+            }
+            meshes[k][o] = moved_into_scene(objects[o].source->character_surface(e.source), e.yaw, e.translation, e.lift);
+            if (objects[o].source->spec().units.map().reflects())  // a reflected file's triangles turn round
+                for (auto& t : meshes[k][o].triangles) std::swap(t[1], t[2]);
+        }
     }
     return meshes;
 }
@@ -216,7 +296,10 @@ SceneGlbReport write_scene_glb(const std::filesystem::path& path, const std::vec
     root.name = "amhv edited scene";
     SceneGlbReport report;
     std::vector<PerformerTrack> tracks(objects.size());
-    for (std::size_t o = 0; o < objects.size(); ++o) tracks[o].textured = has_obj_appearance(*objects[o].source);
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        tracks[o].textured = has_obj_appearance(*objects[o].source);
+        if (const CharacterBody* character = objects[o].source->character()) tracks[o].character = &character_file(*character);
+    }
     AppearanceMaterials materials(model, glb, objects);
     const int frames = objects.empty() ? 0 : int(objects.front().frames->size());
     for (int k = 0; k < frames; ++k) {

@@ -166,16 +166,41 @@ double ObjectSource::find_floor() {
 }
 
 // A BVH body's or a character's parts at frame `number`, with the object's units as they are now.
-std::vector<BodyPart> ObjectSource::body_frame_parts(int number) const {
+std::vector<BodyPart> ObjectSource::body_frame_parts(int number) {
     if (character_) {
         if (number < 0 || number >= character_file(*character_).frame_count())
             fail("object " + spec_.name, "has no frame {} (its animation has frames 0..{})", number, character_file(*character_).frame_count() - 1);
-        return character_body_parts(*character_, number, spec_.units);
+        if (!skinned_.count(number)) skin_ahead(number);
+        return character_body_parts(*character_, skinned_.at(number), number);
     }
     return skeleton_body_parts(*motion_, number, body_options_);
 }
 
-ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
+TriangleMesh ObjectSource::character_surface(int number) {
+    if (!character_) fail("object " + spec_.name, "internal: not a character");
+    if (number < 0 || number >= character_file(*character_).frame_count())
+        fail("object " + spec_.name, "has no frame {} (its animation has frames 0..{})", number, character_file(*character_).frame_count() - 1);
+    if (!skinned_.count(number)) skin_ahead(number);
+    return {skinned_.at(number), character_file(*character_).triangles};
+}
+
+void ObjectSource::skin_ahead(int number) {
+    constexpr std::size_t kSkinAheadBytes = std::size_t(256) << 20;
+    const SkinVertices& vertices = character_skin(*character_);
+    const std::size_t frame_bytes = std::max<std::size_t>(1, vertices.count() * (sizeof(Vec3) + 12));
+    const int ahead = int(std::clamp<std::size_t>(kSkinAheadBytes / frame_bytes, 1, 64));
+    const int last = std::min(number + ahead, character_file(*character_).frame_count()) - 1;
+    std::vector<SkinFrame> frames;
+    for (int f = number; f <= last; ++f) frames.push_back(skin_frame(character_file(*character_), f, spec_.units));
+    CpuSkinner reference;
+    std::vector<float> skinned;
+    (skinner_ ? *skinner_ : reference).skin(vertices, frames, skinned);
+    skinned_.clear();
+    for (int f = number; f <= last; ++f)
+        skinned_[f] = skinned_points(skinned, vertices.count(), std::size_t(f - number), frames[std::size_t(f - number)]);
+}
+
+ObjectSource::ObjectSource(const SceneObject& spec, Skinner* skinner) : skinner_(skinner), spec_(spec) {
     if (!spec_.bvh.empty()) {
         motion_ = load_bvh(spec_.bvh, BvhLoadOptions{spec_.tpose, spec_.fps});
         body_options_.units = spec_.units;
@@ -187,6 +212,7 @@ ObjectSource::ObjectSource(const SceneObject& spec) : spec_(spec) {
                                           spec_.joint_roles);
     if (spec_.floor_auto) {
         spec_.units.lift = -find_floor();
+        skinned_.clear();  // skinned without the lift
     }
     if (motion_) {
         body_options_.units = spec_.units;

@@ -46,7 +46,8 @@ struct GroupMember {
 // height, as a two-object sweep would take it). Every other member is one part named "@NAME".
 class ObjectSource {
 public:
-    explicit ObjectSource(const SceneObject& spec);
+    // `skinner` skins a character's frames (null: the CPU reference; both give the same bits).
+    explicit ObjectSource(const SceneObject& spec, Skinner* skinner = nullptr);
     ObjectSource(const SceneObject& spec, std::vector<GroupMember> members);
     bool is_group() const { return !members_.empty(); }
     // The group's members (empty for one object).
@@ -64,12 +65,21 @@ public:
     const BvhMotion* motion() const { return motion_ ? &*motion_ : nullptr; }
     // The character of a character object, else null.
     const CharacterBody* character() const { return character_.get(); }
+    // A character's whole surface as the file holds it (every vertex, the file's triangles, in the
+    // order of its materials and texture coordinates) at frame `number`, in the scene.
+    TriangleMesh character_surface(int number);
     // The lift the object's frames get (-floor).
     double lift() const { return spec_.units.lift; }
 
 private:
     double find_floor();
-    std::vector<BodyPart> body_frame_parts(int number) const;
+    std::vector<BodyPart> body_frame_parts(int number);
+    // A character's frames from `number` on, skinned in one call of the skinner into skinned_
+    // (which it replaces, so that it holds one call's frames at most): as many as fit
+    // kSkinAheadBytes, up to 64.
+    void skin_ahead(int number);
+    Skinner* skinner_ = nullptr;
+    std::map<int, std::vector<Vec3>> skinned_;
     const std::vector<BodyPart>& group_parts(int number);
     void make_group_track();
     std::string floor_note_;
