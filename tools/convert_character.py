@@ -16,4 +16,5 @@ scene.frame_start, scene.frame_end = int(action.frame_range[0]), int(action.fram
 print("ACTION", action.name, scene.frame_start, scene.frame_end, scene.render.fps)
 bpy.ops.export_scene.fbx(filepath=stem + ".fbx", bake_anim=True, add_leaf_bones=False, bake_anim_use_all_actions=False,
                          bake_anim_use_nla_strips=False, bake_anim_simplify_factor=0.0)
-# Collada (bpy.ops.wm.collada_export) is not written: assimp 5.2 reads Blender 3.4's Collada arms 0.15 m off.
+# Collada (bpy.ops.wm.collada_export) is not written: Blender 3.4 leaves out the animation of joints whose
+# keys never change (this take's shoulders), so the arms come out 0.15 m off; tools/gltf_to_collada.py writes it.

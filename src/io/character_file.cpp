@@ -226,7 +226,9 @@ void sample_animation(const aiAnimation& anim, CharacterFile& out) {
     const double ticks_per_second = anim.mTicksPerSecond > 0 ? anim.mTicksPerSecond : 25.0;  // assimp's default
     const double seconds = anim.mDuration / ticks_per_second;
     if (!std::isfinite(seconds) || seconds < 0) fail(out.source, "animation {} has a duration that is not a finite time", printable(out.animation));
-    const double count = std::floor(seconds * out.fps + 1e-9) + 1;
+    // Key times are often floats (assimp keeps them so): a duration within a thousandth of a frame
+    // of a whole number of frames is that number.
+    const double count = std::floor(seconds * out.fps + 1e-3) + 1;
     if (count > kMaxCharacterFrames) fail(out.source, "animation {} is {:.1f} s long: over {} frames at {} fps", printable(out.animation), seconds, kMaxCharacterFrames, out.fps);
     std::vector<const aiNodeAnim*> channel(out.nodes.size(), nullptr);
     for (unsigned c = 0; c < anim.mNumChannels; ++c) {
