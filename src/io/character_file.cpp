@@ -368,7 +368,9 @@ CharacterFile read_character_here(const fs::path& path, const std::optional<std:
 // The child's answer as bytes: every field in order, vectors and strings with their length first.
 class Packer {
 public:
-    void raw(const void* data, std::size_t bytes) { out_.append(static_cast<const char*>(data), bytes); }
+    void raw(const void* data, std::size_t bytes) {
+        if (bytes > 0) out_.append(static_cast<const char*>(data), bytes);  // an empty vector's data() may be null
+    }
     template <typename T>
     void pod(const T& v) {
         static_assert(std::is_trivially_copyable_v<T>);
@@ -394,6 +396,7 @@ class Unpacker {
 public:
     Unpacker(const std::string& in, const std::string& source) : in_(in), source_(source) {}
     void raw(void* data, std::size_t bytes) {
+        if (bytes == 0) return;  // an empty vector's data() may be null
         if (bytes > in_.size() - at_) fail(source_, "internal: its reader's answer is cut short");
         std::memcpy(data, in_.data() + at_, bytes);
         at_ += bytes;

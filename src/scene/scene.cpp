@@ -49,12 +49,12 @@ void read_character_frames(TableReader& t, const toml::node* source_node, SceneO
     if (!is_file(o.character)) t.error("character", source_node, "'{}' is not a file", o.character);
     o.animation = t.string("animation");
     const std::optional<double> fps = t.number("fps", 1, 1000, false);
-    CharacterFile file;
     try {
-        file = read_character(o.character, o.animation, fps);
+        o.character_file = std::make_shared<const CharacterFile>(read_character(o.character, o.animation, fps));
     } catch (const Error& e) {
         fail(t.where("character", source_node), "{}", e.what());
     }
+    const CharacterFile& file = *o.character_file;
     o.animation = file.animation;
     o.fps = file.fps;
     // Roles given by joint name, for rigs whose names do not say.

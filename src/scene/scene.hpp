@@ -5,6 +5,7 @@
 #include <array>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "src/body/skinned_body.hpp"
 #include "src/core/geometry.hpp"
 #include "src/io/bvh.hpp"
+#include "src/io/character_file.hpp"
 #include "src/io/mesh_sequence.hpp"
 #include "src/sweep/interaction.hpp"
 
@@ -36,6 +38,7 @@ struct SceneObject {
     std::string meshes;                // folder or printf pattern (resolved path), or
     std::string bvh;                   // a BVH file: a body built from the bones, or
     std::string character;             // an animated, skinned character (glTF, FBX, Collada; src/body/character_body.hpp)
+    std::shared_ptr<const CharacterFile> character_file;  // as the scene's reading read it (objects share it: read once)
     std::optional<std::string> animation;  // character: the animation to play (required when the file holds several)
     std::map<std::string, std::string> joint_roles;  // character: joint name -> role, for rigs whose names do not say
     BodyKind body = BodyKind::Capsules;  // BVH: capsules around the bones, or the skinned human

@@ -208,7 +208,8 @@ ObjectSource::ObjectSource(const SceneObject& spec, Skinner* skinner) : skinner_
         if (spec_.body == BodyKind::Skinned) body_options_.skinned = fit_skin_model(load_skin_model(shipped_body_model()), *motion_, spec_.units);
     }
     if (!spec_.character.empty())
-        character_ = build_character_body(std::make_shared<const CharacterFile>(read_character(spec_.character, spec_.animation, spec_.fps)),
+        character_ = build_character_body(spec_.character_file ? spec_.character_file
+                                                                : std::make_shared<const CharacterFile>(read_character(spec_.character, spec_.animation, spec_.fps)),
                                           spec_.joint_roles);
     if (spec_.floor_auto) {
         spec_.units.lift = -find_floor();
