@@ -6,7 +6,7 @@
 namespace amhv::cli {
 
 void add_bvh_options(CLI::App& command, BvhArguments& args) {
-    command.add_option("--fps", args.fps, "BVH: resample the take to this frame rate (frame k = the pose at k/fps s; default: the file's rate)");
+    command.add_option("--fps", args.fps, "BVH: resample the take to this frame rate (frame k = the pose at k/fps s; default: the file's rate); character: sample its animation at it");
     command.add_option("--tpose", args.tpose, "BVH: frame 0 is a converter's T-pose: auto (detect), skip or keep")->capture_default_str();
     command.add_option("--body", args.body, "BVH: capsules around the bones, or skinned (the CC0 Mesh2Motion human fitted to the take)")
         ->capture_default_str();

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "src/body/character_body.hpp"
 #include "src/body/skeleton_body.hpp"
 #include "src/cli/backend.hpp"
 #include "src/cli/bvh_options.hpp"
@@ -22,7 +23,7 @@ namespace amhv::cli {
 namespace {
 
 struct MhvArguments {
-    std::string meshes, bvh, frames, unit, up, out, backend = "vulkan", axis = "z";
+    std::string meshes, bvh, character, animation, frames, unit, up, out, backend = "vulkan", axis = "z";
     double voxel = 0.01;
     int resample = 0;
     int device = -1;
@@ -43,8 +44,44 @@ private:
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// Reads the segment the arguments name: a mesh sequence, or a BVH take turned into a body.
-MeshSequence read_segment(const MhvArguments& args, std::string& source) {
+// A character's frames FIRST:LAST (all by default), skinned by `skinner` 64 frames a call, welded,
+// closed and cut into parts as a scene's character object is, each frame's parts as one mesh.
+MeshSequence character_segment(const MhvArguments& args, Skinner& skinner) {
+    UnitsAndAxes units{parse_unit(args.unit.empty() ? "m" : args.unit, "--unit"), parse_up_axis(args.up.empty() ? "y" : args.up, "--up")};
+    std::optional<std::string> animation;
+    if (!args.animation.empty()) animation = args.animation;
+    const auto file = std::make_shared<const CharacterFile>(
+        read_character(args.character, animation, args.bvh_options.fps > 0 ? std::optional<double>(args.bvh_options.fps) : std::nullopt));
+    const auto body = build_character_body(file);
+    FrameRange range{0, file->frame_count() - 1};
+    if (!args.frames.empty()) range = parse_frame_range(args.frames, "--frames");
+    if (range.first < 0 || range.last >= file->frame_count() || range.first > range.last)
+        fail("--frames", "{}:{} is not within the animation's frames 0:{}", range.first, range.last, file->frame_count() - 1);
+    MeshSequence sequence;
+    sequence.source = args.character;
+    constexpr int kBatch = 64;
+    std::vector<float> skinned;
+    for (int first = range.first; first <= range.last; first += kBatch) {
+        std::vector<SkinFrame> frames;
+        for (int f = first; f <= std::min(range.last, first + kBatch - 1); ++f) frames.push_back(skin_frame(*file, f, units));
+        skinner.skin(character_skin(*body), frames, skinned);
+        for (std::size_t k = 0; k < frames.size(); ++k) {
+            MeshFrame& frame = sequence.frames.emplace_back();
+            frame.source = fmt::format("{} frame {}", args.character, first + int(k));
+            const std::vector<Vec3> points = skinned_points(skinned, character_skin(*body).count(), k, frames[k]);
+            for (const BodyPart& part : character_body_parts(*body, points, first + int(k))) frame.mesh.append(part.mesh);
+        }
+    }
+    return sequence;
+}
+
+// Reads the segment the arguments name: a mesh sequence, a BVH take turned into a body, or a
+// character skinned on the backend.
+MeshSequence read_segment(const MhvArguments& args, std::string& source, Backend& backend) {
+    if (!args.character.empty()) {
+        source = args.character;
+        return character_segment(args, backend.skinner());
+    }
     std::optional<FrameRange> range;
     if (!args.frames.empty()) range = parse_frame_range(args.frames, "--frames");
     if (!args.meshes.empty()) {
@@ -64,23 +101,24 @@ MeshSequence read_segment(const MhvArguments& args, std::string& source) {
 void run_mhv(const MhvArguments& args) {
     Stopwatch clock;
     nlohmann::ordered_json timings;
-    if (args.meshes.empty() == args.bvh.empty()) throw Error("mhv: give exactly one of --meshes and --bvh");
+    if (int(!args.meshes.empty()) + int(!args.bvh.empty()) + int(!args.character.empty()) != 1)
+        throw Error("mhv: give exactly one of --meshes, --bvh and --character");
     if (args.axis.size() != 1 || std::string("xyz").find(args.axis) == std::string::npos)
         throw Error(fmt::format("--axis: '{}' is not x, y or z", args.axis));
 
     // The output folder is checked (and locked) before any work: a target amhv may not write is
     // refused at once, not after the volume is built.
-    std::vector<std::filesystem::path> inputs{args.meshes, args.bvh};
+    std::vector<std::filesystem::path> inputs{args.meshes, args.bvh, args.character};
     if (args.meshes.find('%') != std::string::npos) inputs.push_back(std::filesystem::path(args.meshes).parent_path());
     StagedOutput out(args.out, inputs);
 
-    std::string source;
-    const MeshSequence sequence = read_segment(args, source);
-    timings["read"] = clock.lap();
-    const pipeline::MhvPlan plan = pipeline::plan_mhv(sequence, source, args.voxel, args.resample);
-    timings["prepare"] = clock.lap();
     Backend backend(args.backend, args.device);
     timings["device"] = clock.lap();
+    std::string source;
+    const MeshSequence sequence = read_segment(args, source, backend);
+    timings["read"] = clock.lap();  // a character's skinning included
+    const pipeline::MhvPlan plan = pipeline::plan_mhv(sequence, source, args.voxel, args.resample);
+    timings["prepare"] = clock.lap();
 
     const pipeline::MhvFiles files{args.exr, args.exr_multipart, args.vdb, args.timings, args.axis[0], args.glb};
     const pipeline::MhvReport report = pipeline::write_mhv(plan, backend.voxeliser(), args.backend, backend.device(), files, out.dir(), timings);
@@ -103,11 +141,13 @@ void add_mhv_command(CLI::App& app) {
     auto* input = command->add_option_group("input", "exactly one input");
     input->add_option("--meshes", args->meshes, "Folder of mesh frames (sorted naturally) or printf pattern, e.g. 'walk/frame_%04d.obj'");
     input->add_option("--bvh", args->bvh, "BVH motion capture file: the body is built from capsules around the bones");
+    input->add_option("--character", args->character, "Animated, skinned character (glTF, FBX, Collada): skinned on the backend, closed and cut into parts");
     input->require_option(1);
+    command->add_option("--animation", args->animation, "Character: the animation to play (when the file holds several)");
     command->add_option("--frames", args->frames, "Segment FIRST:LAST, inclusive (pattern: file numbers; folder/BVH: 0-based positions)");
     command->add_option("--voxel", args->voxel, "Voxel edge in metres")->capture_default_str();
     command->add_option("--unit", args->unit, "Input unit: m, cm, mm, in, ft or metres per unit (default m; BVH: 0.0564444, CMU)");
-    command->add_option("--up", args->up, "Input up axis: x, y or z (default z; BVH: y)");
+    command->add_option("--up", args->up, "Input up axis: x, y or z (default z; BVH, character: y)");
     add_bvh_options(*command, args->bvh_options);
     command->add_option("--resample", args->resample, "Resample the segment to N frames (docs/method.md section 2)");
     command->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
