@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <new>
@@ -29,6 +30,17 @@ bool write_all(int fd, const std::string& bytes) {
     return true;
 }
 
+// The process's mapped address space in bytes (/proc/self/statm's first field, in pages); 0 when
+// unknown.
+std::size_t mapped_bytes() {
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    if (!statm) return 0;
+    unsigned long pages = 0;
+    const int read = std::fscanf(statm, "%lu", &pages);
+    std::fclose(statm);
+    return read == 1 ? std::size_t(pages) * std::size_t(::sysconf(_SC_PAGESIZE)) : 0;
+}
+
 // The child: limits, the work, then one status byte ('R' result, 'E' error) and the payload.
 [[noreturn]] void child(int fd, const std::function<std::string()>& work, const ContainLimits& limits) {
     // A fault ends the child by its signal, whatever handler the parent has (a sanitizer's report
@@ -38,7 +50,9 @@ bool write_all(int fd, const std::string& bytes) {
     const rlimit no_core{0, 0};  // a crash leaves no core file behind
     ::setrlimit(RLIMIT_CORE, &no_core);
 #ifndef AMHV_ASAN  // AddressSanitizer reserves terabytes of address space for its shadow
-    const rlimit memory{limits.memory_bytes, limits.memory_bytes};
+    // On top of what the parent had mapped when it forked (a GPU driver's reservations included).
+    const rlim_t cap = rlim_t(mapped_bytes() + limits.memory_bytes);
+    const rlimit memory{cap, cap};
     ::setrlimit(RLIMIT_AS, &memory);
 #endif
     std::string out;

@@ -11,7 +11,7 @@ namespace amhv {
 
 struct ContainLimits {
     unsigned seconds = 300;                          // wall-clock time (SIGALRM in the child)
-    std::size_t memory_bytes = std::size_t(16) << 30;  // address space of the child (RLIMIT_AS)
+    std::size_t memory_bytes = std::size_t(16) << 30;  // address space the child may add to what it inherits (RLIMIT_AS)
 };
 
 // Runs `work` in a forked child and returns the bytes it returned. An amhv::Error it throws is
