@@ -189,15 +189,18 @@ void ObjectSource::skin_ahead(int number) {
     const SkinVertices& vertices = character_skin(*character_);
     const std::size_t frame_bytes = std::max<std::size_t>(1, vertices.count() * (sizeof(Vec3) + 12));
     const int ahead = int(std::clamp<std::size_t>(kSkinAheadBytes / frame_bytes, 1, 64));
-    const int last = std::min(number + ahead, character_file(*character_).frame_count()) - 1;
+    // Reading backwards (a frame before those skinned last), the window ends at `number`.
+    const bool backwards = !skinned_.empty() && number < skinned_.begin()->first;
+    const int first = backwards ? std::max(0, number - ahead + 1) : number;
+    const int last = std::min(first + ahead, character_file(*character_).frame_count()) - 1;
     std::vector<SkinFrame> frames;
-    for (int f = number; f <= last; ++f) frames.push_back(skin_frame(character_file(*character_), f, spec_.units));
+    for (int f = first; f <= last; ++f) frames.push_back(skin_frame(character_file(*character_), f, spec_.units));
     CpuSkinner reference;
     std::vector<float> skinned;
     (skinner_ ? *skinner_ : reference).skin(vertices, frames, skinned);
     skinned_.clear();
-    for (int f = number; f <= last; ++f)
-        skinned_[f] = skinned_points(skinned, vertices.count(), std::size_t(f - number), frames[std::size_t(f - number)]);
+    for (int f = first; f <= last; ++f)
+        skinned_[f] = skinned_points(skinned, vertices.count(), std::size_t(f - first), frames[std::size_t(f - first)]);
 }
 
 ObjectSource::ObjectSource(const SceneObject& spec, Skinner* skinner) : skinner_(skinner), spec_(spec) {

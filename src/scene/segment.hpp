@@ -74,9 +74,9 @@ public:
 private:
     double find_floor();
     std::vector<BodyPart> body_frame_parts(int number);
-    // A character's frames from `number` on, skinned in one call of the skinner into skinned_
-    // (which it replaces, so that it holds one call's frames at most): as many as fit
-    // kSkinAheadBytes, up to 64.
+    // A character's frames from `number` on (up to `number`, when reading backwards), skinned in
+    // one call of the skinner into skinned_ (which it replaces, so that it holds one call's frames
+    // at most): as many as fit kSkinAheadBytes, up to 64.
     void skin_ahead(int number);
     Skinner* skinner_ = nullptr;
     std::map<int, std::vector<Vec3>> skinned_;
