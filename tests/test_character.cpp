@@ -30,6 +30,26 @@ namespace fs = std::filesystem;
 // A square bar 0.1 m wide from y = 0 to y = 1 (glTF: metres, y up) in two bones: "Shoulder" at
 // the origin holds y < 0.5, "Elbow" at y = 0.5 the rest; the animation "bend" turns the elbow
 // about z from 0 to `degrees` over one second.
+// Gives primitive `p` texture coordinates `uvs` (u, v pairs) and the material "arm_skin": base
+// colour (0.9, 0.7, 0.6) and the image file `uri` as its base colour texture.
+void add_textured_material(tinygltf::Model& model, tinygltf::Primitive& p, const std::vector<float>& uvs, const std::string& uri) {
+    GlbBuilder glb(model);
+    p.attributes["TEXCOORD_0"] = glb.accessor(glb.view(uvs.data(), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                              TINYGLTF_TYPE_VEC2, uvs.size() / 2);
+    tinygltf::Image image;
+    image.uri = uri;
+    model.images.push_back(image);
+    tinygltf::Texture t;
+    t.source = int(model.images.size()) - 1;
+    model.textures.push_back(t);
+    tinygltf::Material m;
+    m.name = "arm_skin";
+    m.pbrMetallicRoughness.baseColorFactor = {0.9, 0.7, 0.6, 1.0};
+    m.pbrMetallicRoughness.baseColorTexture.index = int(model.textures.size()) - 1;
+    model.materials.push_back(m);
+    p.material = int(model.materials.size()) - 1;
+}
+
 // `texture`: a material "arm_skin" with that image file as its base colour texture, and texture
 // coordinates u = corner / 4, v = y.
 void write_arm(const fs::path& file, double degrees, bool two_animations = false, float weight_scale = 1.0f, const std::string& texture = "") {
@@ -67,22 +87,7 @@ void write_arm(const fs::path& file, double degrees, bool two_animations = false
     std::vector<float> uvs;
     for (int r = 0; r < rings; ++r)
         for (int c = 0; c < 4; ++c) uvs.insert(uvs.end(), {0.25f * float(c), 1.0f - 0.25f * float(r)});  // glTF's v runs down
-    if (!texture.empty()) {
-        p.attributes["TEXCOORD_0"] = glb.accessor(glb.view(uvs.data(), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                                  TINYGLTF_TYPE_VEC2, uvs.size() / 2);
-        tinygltf::Image image;
-        image.uri = texture;
-        model.images.push_back(image);
-        tinygltf::Texture t;
-        t.source = 0;
-        model.textures.push_back(t);
-        tinygltf::Material m;
-        m.name = "arm_skin";
-        m.pbrMetallicRoughness.baseColorFactor = {0.9, 0.7, 0.6, 1.0};
-        m.pbrMetallicRoughness.baseColorTexture.index = 0;
-        model.materials.push_back(m);
-        p.material = 0;
-    }
+    if (!texture.empty()) add_textured_material(model, p, uvs, texture);
     tinygltf::Mesh mesh;
     mesh.name = "arm";
     mesh.primitives.push_back(p);
@@ -185,21 +190,7 @@ TEST(Character, SceneGlbCarriesTheCharactersMaterialAndTexture) {
         const auto* xyz = reinterpret_cast<const float*>(human.buffers[0].data.data() + human.bufferViews[std::size_t(a.bufferView)].byteOffset + a.byteOffset);
         std::vector<float> uvs;
         for (std::size_t v = 0; v < a.count; ++v) uvs.insert(uvs.end(), {xyz[3 * v], xyz[3 * v + 1]});
-        GlbBuilder builder(human);
-        p.attributes["TEXCOORD_0"] = builder.accessor(builder.view(uvs.data(), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER), TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                                      TINYGLTF_TYPE_VEC2, a.count);
-        tinygltf::Image png;
-        png.uri = "skin.png";
-        human.images.push_back(png);
-        tinygltf::Texture t;
-        t.source = 0;
-        human.textures.push_back(t);
-        tinygltf::Material m;
-        m.name = "arm_skin";
-        m.pbrMetallicRoughness.baseColorFactor = {0.9, 0.7, 0.6, 1.0};
-        m.pbrMetallicRoughness.baseColorTexture.index = 0;
-        human.materials.push_back(m);
-        p.material = 0;
+        add_textured_material(human, p, uvs, "skin.png");
         ASSERT_TRUE(gltf.WriteGltfSceneToFile(&human, (tmp.path() / "human.glb").string(), false, true, false, true));
     }
     SceneObject spec;

@@ -12,13 +12,8 @@
 namespace amhv {
 
 std::vector<Vec3> skin_character_vertices(const CharacterFile& character, int frame) {
-    if (frame < 0 || frame >= character.frame_count())
-        fail(character.source, "has no frame {} (animation {}: frames 0..{})", frame, printable(character.animation), character.frame_count() - 1);
-    const SkinVertices vertices = skin_vertices(character);
-    const SkinFrame pose = skin_frame(character, frame, UnitsAndAxes{});
-    std::vector<float> skinned(3 * vertices.count());
-    skin_reference(vertices, pose.palette, 0, vertices.count(), skinned.data());
-    return skinned_points(skinned, vertices.count(), 0, pose);
+    CpuSkinner reference;
+    return skin_frames(reference, skin_vertices(character), character, frame, frame, UnitsAndAxes{}).front();
 }
 
 TriangleMesh skin_character(const CharacterFile& character, int frame) { return {skin_character_vertices(character, frame), character.triangles}; }
@@ -189,12 +184,8 @@ const CharacterFile& character_file(const CharacterBody& body) { return *body.fi
 const SkinVertices& character_skin(const CharacterBody& body) { return body.skin; }
 
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, int frame, const UnitsAndAxes& units) {
-    if (frame < 0 || frame >= body.file->frame_count())
-        fail(body.file->source, "has no frame {} (animation {}: frames 0..{})", frame, printable(body.file->animation), body.file->frame_count() - 1);
-    const SkinFrame pose = skin_frame(*body.file, frame, units);
-    std::vector<float> skinned(3 * body.skin.count());
-    skin_reference(body.skin, pose.palette, 0, body.skin.count(), skinned.data());
-    return character_body_parts(body, skinned_points(skinned, body.skin.count(), 0, pose), frame);
+    CpuSkinner reference;
+    return character_body_parts(body, skin_frames(reference, body.skin, *body.file, frame, frame, units).front(), frame);
 }
 
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, const std::vector<Vec3>& skinned, int frame) {

@@ -4,9 +4,25 @@
 
 #include <algorithm>
 
+#include "src/core/error.hpp"
 #include "src/core/parallel.hpp"
 
 namespace amhv {
+
+namespace {
+
+// The nodes an unskinned mesh rides on, in node order: the palette's entries after the bones.
+std::vector<int> riding_nodes(const CharacterFile& character) {
+    std::vector<bool> rides(character.nodes.size(), false);
+    for (int node : character.rigid_node)
+        if (node >= 0) rides[std::size_t(node)] = true;
+    std::vector<int> out;
+    for (std::size_t node = 0; node < rides.size(); ++node)
+        if (rides[node]) out.push_back(int(node));
+    return out;
+}
+
+}  // namespace
 
 SkinVertices skin_vertices(const CharacterFile& character) {
     SkinVertices out;
@@ -17,10 +33,7 @@ SkinVertices skin_vertices(const CharacterFile& character) {
     // Palette: the bones, then each node an unskinned mesh rides on, in node order.
     std::vector<std::int32_t> rigid_entry(character.nodes.size(), -1);
     std::int32_t entries = std::int32_t(character.bones.size());
-    for (int node : character.rigid_node)
-        if (node >= 0 && rigid_entry[std::size_t(node)] < 0) rigid_entry[std::size_t(node)] = 0;
-    for (std::size_t node = 0; node < rigid_entry.size(); ++node)
-        if (rigid_entry[node] == 0) rigid_entry[node] = entries++;
+    for (int node : riding_nodes(character)) rigid_entry[std::size_t(node)] = entries++;
     out.palette_size = std::uint32_t(std::max(entries, 1));
     for (std::size_t v = 0; v < n; ++v) {
         for (int a = 0; a < 3; ++a) out.rest[4 * v + std::size_t(a)] = float(character.vertices[v][a]);
@@ -40,17 +53,15 @@ SkinVertices skin_vertices(const CharacterFile& character) {
 }
 
 SkinFrame skin_frame(const CharacterFile& character, int frame, const UnitsAndAxes& units) {
+    if (frame < 0 || frame >= character.frame_count())
+        fail(character.source, "has no frame {} (animation {}: frames 0..{})", frame, printable(character.animation), character.frame_count() - 1);
     Eigen::Affine3d to_scene = Eigen::Affine3d::Identity();
     to_scene.linear() = units.map().matrix() * units.metres_per_unit;
     to_scene.translation() = Vec3(0, 0, units.lift);
     const std::vector<Eigen::Affine3d> globals = character.globals(frame);
     std::vector<Eigen::Affine3d> matrices;
     for (const CharacterBone& bone : character.bones) matrices.push_back(to_scene * globals[std::size_t(bone.node)] * bone.offset);
-    std::vector<bool> rides(character.nodes.size(), false);
-    for (int node : character.rigid_node)
-        if (node >= 0) rides[std::size_t(node)] = true;
-    for (std::size_t node = 0; node < rides.size(); ++node)
-        if (rides[node]) matrices.push_back(to_scene * globals[node]);
+    for (int node : riding_nodes(character)) matrices.push_back(to_scene * globals[std::size_t(node)]);
     if (matrices.empty()) matrices.push_back(to_scene);
     SkinFrame out;
     for (const Eigen::Affine3d& m : matrices) out.anchor += m.translation();
@@ -95,6 +106,17 @@ std::vector<Vec3> skinned_points(std::span<const float> skinned, std::size_t ver
     std::vector<Vec3> out(vertices);
     const float* p = skinned.data() + 3 * vertices * f;
     for (std::size_t v = 0; v < vertices; ++v) out[v] = Vec3(double(p[3 * v]), double(p[3 * v + 1]), double(p[3 * v + 2])) + frame.anchor;
+    return out;
+}
+
+std::vector<std::vector<Vec3>> skin_frames(Skinner& skinner, const SkinVertices& vertices, const CharacterFile& character, int first, int last,
+                                           const UnitsAndAxes& units) {
+    std::vector<SkinFrame> frames;
+    for (int f = first; f <= last; ++f) frames.push_back(skin_frame(character, f, units));
+    std::vector<float> skinned;
+    skinner.skin(vertices, frames, skinned);
+    std::vector<std::vector<Vec3>> out;
+    for (std::size_t k = 0; k < frames.size(); ++k) out.push_back(skinned_points(skinned, vertices.count(), k, frames[k]));
     return out;
 }
 

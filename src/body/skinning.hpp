@@ -40,7 +40,8 @@ struct SkinFrame {
 };
 
 SkinVertices skin_vertices(const CharacterFile& character);
-// Frame `frame` of `character` taken to the scene by `units`.
+// Frame `frame` of `character` taken to the scene by `units`; a frame the animation lacks is an
+// error naming the file.
 SkinFrame skin_frame(const CharacterFile& character, int frame, const UnitsAndAxes& units);
 
 // Vertices first .. first + count - 1 skinned by `palette` into out (3 floats each):
@@ -64,5 +65,10 @@ public:
 
 // Frame f's positions of `skinned` (as Skinner::skin writes them) in the scene: anchor added in double.
 std::vector<Vec3> skinned_points(std::span<const float> skinned, std::size_t vertices, std::size_t f, const SkinFrame& frame);
+
+// Frames first..last of `character` (whose vertices are `vertices`), taken to the scene by
+// `units` and skinned by `skinner` in one call: per frame, every vertex (skinned_points).
+std::vector<std::vector<Vec3>> skin_frames(Skinner& skinner, const SkinVertices& vertices, const CharacterFile& character, int first, int last,
+                                           const UnitsAndAxes& units);
 
 }  // namespace amhv

@@ -60,16 +60,13 @@ MeshSequence character_segment(const MhvArguments& args, Skinner& skinner) {
     MeshSequence sequence;
     sequence.source = args.character;
     constexpr int kBatch = 64;
-    std::vector<float> skinned;
     for (int first = range.first; first <= range.last; first += kBatch) {
-        std::vector<SkinFrame> frames;
-        for (int f = first; f <= std::min(range.last, first + kBatch - 1); ++f) frames.push_back(skin_frame(*file, f, units));
-        skinner.skin(character_skin(*body), frames, skinned);
-        for (std::size_t k = 0; k < frames.size(); ++k) {
+        const std::vector<std::vector<Vec3>> batch =
+            skin_frames(skinner, character_skin(*body), *file, first, std::min(range.last, first + kBatch - 1), units);
+        for (std::size_t k = 0; k < batch.size(); ++k) {
             MeshFrame& frame = sequence.frames.emplace_back();
             frame.source = fmt::format("{} frame {}", args.character, first + int(k));
-            const std::vector<Vec3> points = skinned_points(skinned, character_skin(*body).count(), k, frames[k]);
-            for (const BodyPart& part : character_body_parts(*body, points, first + int(k))) frame.mesh.append(part.mesh);
+            for (const BodyPart& part : character_body_parts(*body, batch[k], first + int(k))) frame.mesh.append(part.mesh);
         }
     }
     return sequence;

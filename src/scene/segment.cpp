@@ -168,20 +168,21 @@ double ObjectSource::find_floor() {
 // A BVH body's or a character's parts at frame `number`, with the object's units as they are now.
 std::vector<BodyPart> ObjectSource::body_frame_parts(int number) {
     if (character_) {
-        if (number < 0 || number >= character_file(*character_).frame_count())
-            fail("object " + spec_.name, "has no frame {} (its animation has frames 0..{})", number, character_file(*character_).frame_count() - 1);
-        if (!skinned_.count(number)) skin_ahead(number);
-        return character_body_parts(*character_, skinned_.at(number), number);
+        return character_body_parts(*character_, skinned_frame(number), number);
     }
     return skeleton_body_parts(*motion_, number, body_options_);
 }
 
 TriangleMesh ObjectSource::character_surface(int number) {
     if (!character_) fail("object " + spec_.name, "internal: not a character");
+    return {skinned_frame(number), character_file(*character_).triangles};
+}
+
+const std::vector<Vec3>& ObjectSource::skinned_frame(int number) {
     if (number < 0 || number >= character_file(*character_).frame_count())
         fail("object " + spec_.name, "has no frame {} (its animation has frames 0..{})", number, character_file(*character_).frame_count() - 1);
     if (!skinned_.count(number)) skin_ahead(number);
-    return {skinned_.at(number), character_file(*character_).triangles};
+    return skinned_.at(number);
 }
 
 void ObjectSource::skin_ahead(int number) {
@@ -193,14 +194,10 @@ void ObjectSource::skin_ahead(int number) {
     const bool backwards = !skinned_.empty() && number < skinned_.begin()->first;
     const int first = backwards ? std::max(0, number - ahead + 1) : number;
     const int last = std::min(first + ahead, character_file(*character_).frame_count()) - 1;
-    std::vector<SkinFrame> frames;
-    for (int f = first; f <= last; ++f) frames.push_back(skin_frame(character_file(*character_), f, spec_.units));
     CpuSkinner reference;
-    std::vector<float> skinned;
-    (skinner_ ? *skinner_ : reference).skin(vertices, frames, skinned);
+    std::vector<std::vector<Vec3>> frames = skin_frames(skinner_ ? *skinner_ : reference, vertices, character_file(*character_), first, last, spec_.units);
     skinned_.clear();
-    for (int f = first; f <= last; ++f)
-        skinned_[f] = skinned_points(skinned, vertices.count(), std::size_t(f - first), frames[std::size_t(f - first)]);
+    for (int f = first; f <= last; ++f) skinned_[f] = std::move(frames[std::size_t(f - first)]);
 }
 
 ObjectSource::ObjectSource(const SceneObject& spec, Skinner* skinner) : skinner_(skinner), spec_(spec) {

@@ -78,6 +78,8 @@ private:
     // one call of the skinner into skinned_ (which it replaces, so that it holds one call's frames
     // at most): as many as fit kSkinAheadBytes, up to 64.
     void skin_ahead(int number);
+    // A character's every vertex at frame `number`, in the scene (skinned ahead when not yet).
+    const std::vector<Vec3>& skinned_frame(int number);
     Skinner* skinner_ = nullptr;
     std::map<int, std::vector<Vec3>> skinned_;
     const std::vector<BodyPart>& group_parts(int number);
