@@ -238,6 +238,13 @@ struct HeightsInPlay {
     bool open = false;
 };
 
+// The poses in play of the box `rows` counted into `pruner` (2D prefix sums of `open`, one row of
+// `width` poses per j; sweep_vulkan_pulled.cpp).
+void count_poses_in_play(PulledPruner& pruner, const std::uint8_t* open, const Band& rows, int width, int height);
+// At least the pairs the pruned runs of `runs` (of angle `angle_in_batch`) visit: the fixed runs
+// their keys hold.
+std::uint64_t pairs_at_most(const MapTest& test, int angle_in_batch, std::span<const SliceRun> runs);
+
 // The kernels and settings a run borrows from its VulkanSweeper.
 struct SweepTools {
     Context& context;
