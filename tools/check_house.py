@@ -15,7 +15,7 @@ import sys
 # Lower layers first; a file may include its own layer and any layer before it.
 LAYERS = [
     ["src/core"], ["src/gpu"], ["src/io"], ["src/body"], ["src/voxelise"], ["src/sweep"], ["host/reference"],
-    ["src/scene"], ["src/edit", "host/choose", "host/paths", "src/compose"], ["src/results"], ["src/pipeline"], ["src/cli"],
+    ["src/scene"], ["src/edit", "host/choose", "host/paths", "src/compose", "src/propose"], ["src/results"], ["src/pipeline"], ["src/cli"],
 ]
 MAX_LINES = 150
 

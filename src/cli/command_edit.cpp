@@ -9,6 +9,7 @@
 #include "src/cli/backend.hpp"
 #include "src/cli/commands.hpp"
 #include "src/pipeline/party_stage.hpp"
+#include "src/pipeline/propose_stage.hpp"
 #include "src/pipeline/sweep_stage.hpp"
 #include "src/core/error.hpp"
 #include "src/io/files.hpp"
@@ -22,8 +23,23 @@ struct EditArguments {
     std::string scene, out, backend = "vulkan";
     std::string body;  // the demo's --body: given, every BVH object gets it
     int device = -1;
+    bool propose = false;  // --propose: a scene without key segments edits with the best proposal
     pipeline::EditRunOptions options;
 };
+
+// --propose on a scene without key segments: the best proposal (amhv propose) becomes its one key
+// segment.
+void propose_into(Scene& scene, pipeline::Backends& backends) {
+    if (scene.multi_party()) fail(scene.file.string(), "--propose takes a scene of two objects; this one has {}", scene.objects.size());
+    const pipeline::ProposeResult result = pipeline::propose_scene(scene, backends);
+    pipeline::require_proposals(scene, result);
+    KeySegment best = result.proposals.front().segment;
+    best.index = 1;
+    scene.segments.push_back(best);
+    std::cout << fmt::format("proposed: {} on {} / {}, A frames {}-{}, B frames {}-{} (the best of {}; amhv propose lists them)\n", best.type.name(),
+                             best.interest_a.labels.front(), best.interest_b.labels.front(), best.a[0], best.a[1], best.b[0], best.b[1],
+                             result.proposals.size());
+}
 
 // What a multi-party edit placed and wrote.
 void report_party(const pipeline::PartyEdit& party, const std::filesystem::path& target, const pipeline::EditRunOptions& options) {
@@ -38,7 +54,7 @@ void report_party(const pipeline::PartyEdit& party, const std::filesystem::path&
 
 void run_edit(const EditArguments& args) {
     const auto start = std::chrono::steady_clock::now();
-    Scene scene = load_scene(args.scene);
+    Scene scene = load_scene(args.scene, args.propose);
     if (!args.body.empty()) {
         for (SceneObject& o : scene.objects)
             if (!o.bvh.empty()) o.body = parse_body_kind(args.body, "--body");
@@ -47,6 +63,7 @@ void run_edit(const EditArguments& args) {
     }
     Backend backend(args.backend, args.device);
     pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
+    if (args.propose && scene.segments.empty()) propose_into(scene, backends);
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);
     if (!args.options.from_sweep.empty()) inputs.emplace_back(args.options.from_sweep);
     StagedOutput out(args.out, inputs);
@@ -99,6 +116,7 @@ void add_edit_command(CLI::App& app) {
     edit->add_option("--out", args->out, "Output folder (replaced as a whole when the run succeeds)")->required();
     add_backend_options(*edit, args->backend, args->device);
     edit->add_option("--from-sweep", args->options.from_sweep, "Reuse the solution groups of an earlier `amhv sweep` (or `amhv edit`) of this scene");
+    edit->add_flag("--propose", args->propose, "A scene without key segments: propose them (amhv propose) and edit with the best");
     edit->add_flag("--allow-empty", args->options.allow_empty, "Keep B's captured placement in a key segment whose solution group is empty");
     edit->add_flag("--allow-transition-overlap", args->options.allow_transition_overlap,
                    "Keep the paper's transitional paths where the performers would pass through each other (still checked and reported)");

@@ -12,6 +12,7 @@ void add_compose_command(CLI::App& app);
 void add_scene_commands(CLI::App& app);  // check, sweep
 void add_edit_command(CLI::App& app);  // edit, demo
 void add_probe_command(CLI::App& app);
+void add_propose_command(CLI::App& app);
 void add_view_command(CLI::App& app);  // view
 void add_shard_commands(CLI::App& app);  // merge, plan
 

@@ -43,6 +43,7 @@ int run(int argc, char** argv, const char* commit) {
     add_scene_commands(app);
     add_edit_command(app);
     add_probe_command(app);
+    add_propose_command(app);
     add_view_command(app);
     add_shard_commands(app);
     try {

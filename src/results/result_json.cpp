@@ -17,6 +17,17 @@ namespace amhv::results {
 
 namespace fs = std::filesystem;
 
+Json solution_json(const Solution& s) {
+    return {{"x", s.x}, {"y", s.y}, {"z", s.z}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
+}
+
+// The natural choice's terms (docs/method.md section 7b): null where a term does not apply.
+Json natural_terms_json(const NaturalTerms& t) {
+    auto value = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
+    return {{"cost", t.cost()}, {"gaze", value(t.gaze)}, {"depth_m", value(t.depth_m)}, {"sliding_m", value(t.sliding_m)},
+            {"crowding", value(t.crowding)}};
+}
+
 namespace {
 
 nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
@@ -44,9 +55,6 @@ Json truth_json(const Scene& scene, const SweepProblem& problem, const SolutionG
             {"nearest_solution_m", std::isinf(nearest) ? nlohmann::json(nullptr) : nlohmann::json(nearest)}};
 }
 
-Json solution_json(const Solution& s) {
-    return {{"x", s.x}, {"y", s.y}, {"z", s.z}, {"theta_deg", s.theta_deg}, {"L", s.distance}, {"thetaA_deg", s.theta_a_deg}, {"thetaB_deg", s.theta_b_deg}};
-}
 
 // The keys for real captures as result.json records them (and --from-sweep compares them).
 Json capture_keys_json(const KeySegment& segment) {
@@ -198,13 +206,6 @@ Json sweep_segment_json(const Scene& scene, const KeySegment& segment, const Swe
 }
 
 namespace {
-
-// The natural choice's terms (docs/method.md section 7b): null where a term does not apply.
-Json natural_terms_json(const NaturalTerms& t) {
-    auto value = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
-    return {{"cost", t.cost()}, {"gaze", value(t.gaze)}, {"depth_m", value(t.depth_m)}, {"sliding_m", value(t.sliding_m)},
-            {"crowding", value(t.crowding)}};
-}
 
 Json natural_json(const NaturalReport& n) {
     Json out = {{"weight", n.weight}, {"chosen", natural_terms_json(n.chosen)}};

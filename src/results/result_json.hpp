@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "src/edit/edit.hpp"
+#include "src/edit/natural_terms.hpp"
 #include "src/scene/scene.hpp"
 #include "src/scene/segment.hpp"
 #include "src/sweep/problem.hpp"
@@ -18,6 +19,11 @@
 namespace amhv::results {
 
 using Json = nlohmann::ordered_json;
+
+// A solution's descriptors: x, y, z, theta_deg, L, thetaA_deg, thetaB_deg.
+Json solution_json(const Solution& s);
+// The natural choice's terms (docs/method.md section 7b) and their cost: null where a term does not apply.
+Json natural_terms_json(const NaturalTerms& t);
 
 // program, scene, backend, device and the resolved sampling and weights.
 Json result_header(const Scene& scene, const std::string& backend, const std::string& device);

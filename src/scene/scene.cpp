@@ -395,7 +395,7 @@ int segments_with(const Scene& scene, const std::string& name, const std::vector
 // The placement order (docs/method.md section 11): `order = [...]` as given (the anchor first), or
 // the anchor and then, one at a time, the object with the most key segments with the objects
 // already placed (ties: file order). Each pair must name the object placed first first.
-void resolve_order(TableReader& top, Scene& scene) {
+void resolve_order(TableReader& top, Scene& scene, bool unplaced_ok) {
     const auto anchor = std::find_if(scene.objects.begin(), scene.objects.end(), [](const SceneObject& o) { return o.anchor; });
     if (top.has("order")) {
         scene.order = top.strings("order");
@@ -420,7 +420,7 @@ void resolve_order(TableReader& top, Scene& scene) {
             scene.order.push_back(best->name);
         }
     }
-    for (std::size_t n = 1; n < scene.order.size(); ++n) {
+    for (std::size_t n = 1; n < scene.order.size() && !unplaced_ok; ++n) {
         const std::vector<std::string> placed(scene.order.begin(), scene.order.begin() + std::ptrdiff_t(n));
         if (segments_with(scene, scene.order[n], placed) == 0)
             top.error("segments", top.get("segments"), "object {} has no key segment with an object placed before it (order: {}): nothing places it",
@@ -469,7 +469,7 @@ void read_truth(TableReader& top, Scene& scene) {
 }
 }  // namespace
 
-Scene load_scene(const fs::path& file) {
+Scene load_scene(const fs::path& file, bool segments_optional) {
     if (!is_file(file)) fail(file.string(), "no such scene file");
     toml::table root;
     try {
@@ -524,16 +524,17 @@ Scene load_scene(const fs::path& file) {
     read_objects(top, scene);
     const toml::node* segments_node = top.get("segments");
     const toml::array* segments = segments_node ? segments_node->as_array() : nullptr;
-    if (!segments || segments->empty())
-        top.error("segments", segments_node, "give at least one key segment pair as [[segments]] with a, b and type");
-    if (segments->size() > std::size_t(kMaxSegments)) top.error("segments", segments_node, "{} key segments; a scene may have at most {}", segments->size(), kMaxSegments);
-    for (std::size_t s = 0; s < segments->size(); ++s) {
+    if ((!segments || segments->empty()) && !segments_optional)
+        top.error("segments", segments_node, "give at least one key segment pair as [[segments]] with a, b and type (amhv propose finds some)");
+    if (segments_node && !segments) top.error("segments", segments_node, "must be an array of tables: [[segments]]");
+    if (segments && segments->size() > std::size_t(kMaxSegments)) top.error("segments", segments_node, "{} key segments; a scene may have at most {}", segments->size(), kMaxSegments);
+    for (std::size_t s = 0; segments && s < segments->size(); ++s) {
         const toml::node& node = *segments->get(s);
         if (!node.is_table()) top.error(fmt::format("segments[{}]", s + 1), &node, "must be a table");
         TableReader t(*node.as_table(), fmt::format("segments[{}]", s + 1), file);
         scene.segments.push_back(read_segment(t, node, scene, int(s) + 1));
     }
-    resolve_order(top, scene);
+    resolve_order(top, scene, scene.segments.empty() && segments_optional && scene.objects.size() == 2);
     read_truth(top, scene);
     top.finish();
     return scene;
@@ -545,8 +546,8 @@ const SceneObject& Scene::object(const std::string& name) const {
     throw Error(fmt::format("{}: no object named '{}'", file.string(), name));
 }
 
-Scene load_two_object_scene(const fs::path& file, const std::string& command) {
-    Scene scene = load_scene(file);
+Scene load_two_object_scene(const fs::path& file, const std::string& command, bool segments_optional) {
+    Scene scene = load_scene(file, segments_optional);
     if (scene.multi_party())
         fail(scene.file.string(), "has {} objects; `amhv {}` takes two. Each object after the second is swept against the edit of the ones placed "
              "before it, so a multi-party scene is swept and edited in one run: amhv edit", scene.objects.size(), command);

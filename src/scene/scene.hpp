@@ -157,11 +157,12 @@ struct Scene {
 
 // Parses and validates `file`; relative paths are resolved against the file's folder. Checks the
 // referenced sequences exist and the frame ranges fit them. Throws amhv::Error "file:line: key: what".
-Scene load_scene(const std::filesystem::path& file);
+// `segments_optional`: a two-object scene may state no key segment (`amhv propose` finds them).
+Scene load_scene(const std::filesystem::path& file, bool segments_optional = false);
 
 // load_scene for a command that takes two objects only (`amhv sweep`, `merge`, `plan`, `probe`):
 // a multi-party scene gets one line saying why and what to run instead.
-Scene load_two_object_scene(const std::filesystem::path& file, const std::string& command);
+Scene load_two_object_scene(const std::filesystem::path& file, const std::string& command, bool segments_optional = false);
 
 // The scene with every default filled in, as TOML text (what `amhv check` prints).
 std::string resolved_toml(const Scene& scene);

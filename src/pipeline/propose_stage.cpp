@@ -1,0 +1,174 @@
+#include "src/pipeline/propose_stage.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "src/core/clock.hpp"
+#include "src/core/error.hpp"
+#include "src/edit/natural.hpp"
+#include "src/sweep/solution_group.hpp"
+
+namespace amhv::pipeline {
+
+namespace {
+
+// The scored frames of a key segment built by build_segment: at most kNaturalFrames of its
+// normalised frames, evenly spaced with both ends, as natural_frames() takes them from an edit.
+NaturalFrames segment_frames(const KeySegment& key, const NormalisedPair& frames) {
+    NaturalFrames out;
+    const int length = frames.length, count = std::min(kNaturalFrames, length);
+    for (int n = 0; n < count; ++n) {
+        const int m = count > 1 ? int(std::lround(double(n) * (length - 1) / (count - 1))) : 0;
+        out.a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
+        out.b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
+    }
+    return out;
+}
+
+// One key segment swept at `sampling` on the backends, and its best member by natural score.
+ProposalSweep sweep_candidate(const Scene& scene, const KeySegment& key, const Sampling& sampling, ObjectSource& a, ObjectSource& b,
+                              Backends& backends) {
+    Scene at = scene;
+    at.sampling = sampling;
+    const SegmentBuild build = build_segment(at, key, a, b, backends.voxeliser);
+    const SweepResult result = backends.sweeper.sweep(build.problem);
+    ProposalSweep out;
+    out.voxel = sampling.voxel;
+    out.angle_step_deg = sampling.angle_step_deg;
+    out.poses = build.problem.range.size();
+    out.rejected = result.rejected;
+    KeySweep sweep;
+    sweep.index = key.index;
+    sweep.root_a = build.problem.a.root;
+    sweep.root_b = build.problem.b.root;
+    sweep.describe = describer(build.problem);
+    sweep.group = solution_group(result);
+    out.members = sweep.group.size();
+    if (sweep.group.empty()) return out;
+    const NaturalScorer scorer(key, sweep, segment_frames(key, build.frames), a, b, backends.voxeliser, sampling.angles());
+    const std::vector<double> costs = scorer.costs(sweep.group);
+    const std::uint64_t best = std::uint64_t(std::min_element(costs.begin(), costs.end()) - costs.begin());
+    out.score = costs[best];
+    out.terms = scorer.terms(sweep.group.at(best));
+    out.best = sweep.describe(sweep.group.at(best));
+    return out;
+}
+
+// Those swept again at the scene's sampling first (scores at two samplings do not compare), then
+// those with members, then by the best member's score (lower first), then the larger group; ties
+// keep the candidates' order.
+void rank(std::vector<Proposal>& proposals) {
+    std::stable_sort(proposals.begin(), proposals.end(), [](const Proposal& x, const Proposal& y) {
+        if (x.refined.has_value() != y.refined.has_value()) return x.refined.has_value();
+        const ProposalSweep &p = x.decided(), &q = y.decided();
+        if ((p.members > 0) != (q.members > 0)) return p.members > 0;
+        if (p.score != q.score) return p.score < q.score;
+        return p.members > q.members;
+    });
+}
+
+std::string part_list(const PartSpec& p) {
+    std::string out;
+    for (const std::string& l : p.labels) out += fmt::format("{}\"{}\"", out.empty() ? "" : ", ", l);
+    return out;
+}
+
+}  // namespace
+
+ProposeResult propose_scene(const Scene& scene, Backends& backends) {
+    const auto start = std::chrono::steady_clock::now();
+    for (const SceneObject* o : {&scene.a, &scene.b})
+        if (o->bvh.empty())
+            fail(scene.file.string(), "object {} is not a BVH take: amhv propose finds contact moments from a skeleton's joints (mesh sequences and "
+                 "characters: not yet)", o->name);
+    ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
+    const propose::HandTrack track_a = propose::hand_track(*a.motion(), scene.a.units, scene.a.frame_first, scene.a.frame_last, scene.a.bvh);
+    const propose::HandTrack track_b = propose::hand_track(*b.motion(), scene.b.units, scene.b.frame_first, scene.b.frame_last, scene.b.bvh);
+    ProposeResult out;
+    out.events_a = propose::contact_events(track_a);
+    out.events_b = propose::contact_events(track_b);
+    const std::vector<propose::Candidate> candidates = propose::candidates(track_a, out.events_a, track_b, out.events_b);
+    out.candidates = int(candidates.size());
+    Sampling coarse = scene.sampling;
+    coarse.voxel = std::max(coarse.voxel, propose::kCoarseVoxel);
+    coarse.angle_step_deg = std::max(coarse.angle_step_deg, propose::kCoarseAngleDeg);
+    if (std::abs(360.0 / coarse.angle_step_deg - std::round(360.0 / coarse.angle_step_deg)) > 1e-9) coarse.angle_step_deg = scene.sampling.angle_step_deg;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+        Proposal p{candidates[c], propose::candidate_segment(candidates[c], int(c) + 1), {}, std::nullopt};
+        p.segment.pair = {scene.a.name, scene.b.name};
+        p.coarse = sweep_candidate(scene, p.segment, coarse, a, b, backends);
+        if (p.coarse.members > 0) out.proposals.push_back(std::move(p));
+    }
+    rank(out.proposals);
+    const bool finer = coarse.voxel != scene.sampling.voxel || coarse.angle_step_deg != scene.sampling.angle_step_deg;
+    for (std::size_t n = 0; finer && n < std::min(out.proposals.size(), std::size_t(propose::kRefined)); ++n)
+        out.proposals[n].refined = sweep_candidate(scene, out.proposals[n].segment, scene.sampling, a, b, backends);
+    rank(out.proposals);
+    std::erase_if(out.proposals, [](const Proposal& p) { return p.decided().members == 0; });
+    out.seconds = seconds_since(start);
+    return out;
+}
+
+void require_proposals(const Scene& scene, const ProposeResult& result) {
+    if (!result.proposals.empty()) return;
+    const std::size_t a = result.events_a.size(), b = result.events_b.size();
+    fail(scene.file.string(), "no proposal: A shows {} contact moment{}, B {}; {} pair{} of them swept, and in none does a pose of B within the "
+         "sweep's range meet A", a, a == 1 ? "" : "s", b, result.candidates, result.candidates == 1 ? "" : "s");
+}
+
+results::Json proposals_json(const Scene& scene, const ProposeResult& result) {
+    auto event_json = [](const propose::ContactEvent& e) {
+        return results::Json{{"type", e.variant == 'a' ? "0&0a" : "0&0b"}, {"hand", propose::hand_part(e.hand)}, {"frames", {e.first, e.last}},
+                             {"moment", e.moment}, {"strength", e.strength}, {"why", e.why}};
+    };
+    auto sweep_json = [](const ProposalSweep& s) {
+        return results::Json{{"voxel", s.voxel}, {"angle_step_deg", s.angle_step_deg}, {"poses", s.poses}, {"members", s.members},
+                             {"rejected", {{"contact", s.rejected[0]}, {"dictionary", s.rejected[1]}, {"fidelity", s.rejected[2]}, {"visibility", s.rejected[3]}}},
+                             {"natural", results::natural_terms_json(s.terms)}, {"best", results::solution_json(s.best)}};
+    };
+    results::Json out{{"scene", scene.file.string()}, {"candidates", result.candidates}, {"seconds", result.seconds}};
+    for (const auto& [name, events] : {std::pair{"A", &result.events_a}, {"B", &result.events_b}}) {
+        out["events"][name] = results::Json::array();
+        for (const auto& e : *events) out["events"][name].push_back(event_json(e));
+    }
+    out["proposals"] = results::Json::array();
+    for (std::size_t n = 0; n < result.proposals.size(); ++n) {
+        const Proposal& p = result.proposals[n];
+        const propose::Candidate& c = p.candidate;
+        results::Json j{{"rank", n + 1}, {"type", p.segment.type.name()}, {"a", {c.a[0], c.a[1]}}, {"b", {c.b[0], c.b[1]}},
+                        {"shift_frames", c.shift()}, {"parts", {{"A", propose::hand_part(c.hand_a)}, {"B", propose::hand_part(c.hand_b)}}},
+                        {"coupling_m", c.coupling_m < 0 ? results::Json(nullptr) : results::Json(c.coupling_m)}, {"coarse", sweep_json(p.coarse)},
+                        {"refined", p.refined ? sweep_json(*p.refined) : results::Json(nullptr)}, {"why", c.why}};
+        out["proposals"].push_back(std::move(j));
+    }
+    return out;
+}
+
+std::string proposals_toml(const Scene& scene, const ProposeResult& result) {
+    std::ostringstream s;
+    s << fmt::format("# Key segments proposed by `amhv propose` for {} ({} pairs of contact moments swept, {} with a member),\n", scene.file.string(),
+                     result.candidates, result.proposals.size());
+    s << "# best first. Paste the [[segments]] blocks you want into the scene (docs/method.md section 13).\n";
+    for (std::size_t n = 0; n < result.proposals.size(); ++n) {
+        const Proposal& p = result.proposals[n];
+        const ProposalSweep& d = p.decided();
+        const KeySegment& k = p.segment;
+        s << fmt::format("\n# {}. {} on {} / {}: B's frame {} meets A's {} (shift {:+d}); {} members at {} m / {} deg, natural score {:.2f} at x {:.2f}, "
+                         "y {:.2f}, theta {:.0f} deg\n",
+                         n + 1, k.type.name(), propose::hand_part(p.candidate.hand_a), propose::hand_part(p.candidate.hand_b), k.b[0], k.a[0],
+                         p.candidate.shift(), d.members, d.voxel, d.angle_step_deg, d.score, d.best.x, d.best.y, d.best.theta_deg);
+        s << "# " << p.candidate.why << '\n';
+        s << "[[segments]]\n";
+        s << fmt::format("a = [{}, {}]\nb = [{}, {}]\ntype = \"{}\"\n", k.a[0], k.a[1], k.b[0], k.b[1], k.type.name());
+        s << fmt::format("interest = {{ A = {{ parts = [{}] }}, B = {{ parts = [{}] }} }}\n", part_list(k.interest_a), part_list(k.interest_b));
+        s << fmt::format("fidelity = {{ A = {{ parts_except = [{}] }}, B = {{ parts_except = [{}] }} }}\n", part_list(k.fidelity_a), part_list(k.fidelity_b));
+        s << fmt::format("visibility = {{ enabled = true, half_angle_deg = {:.1f} }}\n", k.visibility.half_angle_deg);
+    }
+    return s.str();
+}
+
+}  // namespace amhv::pipeline

@@ -1,0 +1,56 @@
+#pragma once
+// `amhv propose` (docs/method.md section 13): key segments found in two takes. Each candidate
+// pair of contact moments (src/propose/) is swept coarsely on the run's backend and scored by the
+// natural choice's criteria (src/edit/natural.hpp) at its best member; the best few are swept again
+// at the scene's own sampling. Writes proposals.toml (ready-to-paste [[segments]] blocks) and
+// proposals.json.
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <vector>
+
+#include "src/edit/natural_terms.hpp"
+#include "src/pipeline/sweep_stage.hpp"
+#include "src/propose/proposals.hpp"
+#include "src/results/result_json.hpp"
+
+namespace amhv::pipeline {
+
+// One candidate as swept: its key segment, and per sampling (coarse, then the scene's own for the
+// best few) the group's size and its best member's natural score.
+struct ProposalSweep {
+    double voxel = 0, angle_step_deg = 0;
+    std::uint64_t poses = 0, members = 0;
+    std::array<std::uint64_t, 4> rejected{};
+    double score = std::numeric_limits<double>::infinity();  // the best member's natural cost
+    NaturalTerms terms;
+    Solution best;
+};
+
+struct Proposal {
+    propose::Candidate candidate;
+    KeySegment segment;
+    ProposalSweep coarse;
+    std::optional<ProposalSweep> refined;
+    const ProposalSweep& decided() const { return refined ? *refined : coarse; }
+};
+
+struct ProposeResult {
+    std::vector<propose::ContactEvent> events_a, events_b;
+    std::vector<Proposal> proposals;  // ranked, best first; only those whose group has a member
+    int candidates = 0;               // pairs swept
+    double seconds = 0;
+};
+
+// Proposals for the two BVH objects of `scene` (its key segments, if any, are not used). Throws
+// amhv::Error naming the scene when an object is not a BVH take.
+ProposeResult propose_scene(const Scene& scene, Backends& backends);
+
+// Throws amhv::Error naming the scene, in one line, when `result` holds no proposal.
+void require_proposals(const Scene& scene, const ProposeResult& result);
+
+// proposals.json's content, and proposals.toml's text.
+results::Json proposals_json(const Scene& scene, const ProposeResult& result);
+std::string proposals_toml(const Scene& scene, const ProposeResult& result);
+
+}  // namespace amhv::pipeline

@@ -1,0 +1,206 @@
+// amhv propose: contact moments from a take's joints, B's shift from the hands' coupled motion,
+// and the proposals on the shipped pairs with their key segments removed.
+#include <cmath>
+#include <functional>
+#include <fstream>
+#include <numbers>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "src/propose/proposals.hpp"
+#include "support.hpp"
+
+namespace amhv {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace amhv::propose;
+
+Vec3 turned(const Vec3& p, double degrees) {
+    const double t = degrees * std::numbers::pi / 180, c = std::cos(t), s = std::sin(t);
+    return {c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z()};
+}
+
+// A track at `fps` whose hips move at `walk(f)` m/s along x and whose hands sit at `hand(f)`.
+HandTrack track(double fps, int frames, const std::function<double(int)>& walk, const std::function<Vec3(int)>& hand) {
+    HandTrack t;
+    t.fps = fps;
+    double x = 0;
+    for (int f = 0; f < frames; ++f) {
+        x += walk(f) / fps;
+        t.hips.emplace_back(x, 0.0, 0.95);
+        t.hand[0].push_back(hand(f) + Vec3(0, 0.4, 0));
+        t.hand[1].push_back(hand(f));
+        t.heading.push_back(0.0);
+    }
+    return t;
+}
+
+std::vector<ContactEvent> of_variant(const std::vector<ContactEvent>& events, char variant, Hand hand) {
+    std::vector<ContactEvent> out;
+    for (const ContactEvent& e : events)
+        if (e.variant == variant && e.hand == hand) out.push_back(e);
+    return out;
+}
+
+// A shipped scene (data/scenes/NAME) without its key segments, its paths made absolute, `edit`
+// applied to its text, written into `dir` as `file`.
+fs::path without_segments(const fs::path& dir, const std::string& name, const std::string& file,
+                          const std::function<void(std::string&)>& edit = nullptr) {
+    const fs::path scenes = test::source_dir() / "data" / "scenes";
+    std::string text = test::read_text(scenes / name);
+    text = text.substr(0, text.find("[[segments]]"));
+    for (std::size_t at; (at = text.find("\"../cmu/")) != std::string::npos;) text.replace(at + 1, 2, (scenes / "..").string());
+    if (edit) edit(text);
+    std::ofstream(dir / file) << text;
+    return dir / file;
+}
+
+// A hand pumped up and down and back and forth, as in a handshake (2 Hz, a few centimetres).
+Vec3 pumped(int f) {
+    const double t = f / 120.0;
+    return {0.3 + 0.04 * std::sin(2 * std::numbers::pi * 2 * t), 0.02 * std::cos(2 * std::numbers::pi * 1.3 * t), 1.0 + 0.05 * std::sin(2 * std::numbers::pi * 2.2 * t)};
+}
+
+TEST(Propose, CoupledMotionFindsTheShiftAndTurnOfHeldHands) {
+    // B's frame f + 7 holds A's hand of frame f, turned by -40 degrees and moved: the held hands.
+    const HandTrack a = track(120, 200, [](int) { return 0.0; }, pumped);
+    const HandTrack b = track(120, 200, [](int) { return 0.0; }, [](int f) { return Vec3(turned(pumped(f - 7), -40) + Vec3(2, -1, 0.03)); });
+    const Coupling at = coupled_motion(a, Hand::Right, b, Hand::Right, 40, 140, 7);
+    EXPECT_LT(at.rms_m, 1e-6);  // a micrometre: the closed form subtracts sums of squares
+    EXPECT_NEAR(at.theta_rad * 180 / std::numbers::pi, 40.0, 1e-6);
+    for (int shift : {4, 10}) EXPECT_GT(coupled_motion(a, Hand::Right, b, Hand::Right, 40, 140, shift).rms_m, 0.005) << shift;
+    // As candidates: both stand over frames 20..180 of their takes; the best shift is 7.
+    const ContactEvent hold_a{Hand::Right, 'a', 20, 180, 20, 1.3, "a"}, hold_b{Hand::Right, 'a', 20, 180, 20, 1.3, "b"};
+    const std::vector<Candidate> found = candidates(a, {hold_a}, b, {hold_b});
+    ASSERT_FALSE(found.empty());
+    EXPECT_EQ(found[0].shift(), 7);
+    EXPECT_EQ(found[0].variant, 'a');
+    EXPECT_EQ(found[0].a[0], 20);
+    EXPECT_EQ(found[0].b[1], 180);
+    EXPECT_LT(found[0].coupling_m, 1e-6);
+}
+
+TEST(Propose, ASlapIsAHandsSuddenStopAndASwingIsNot) {
+    // At 30 fps: the right hand arrives at 2.5 m/s and stops at frame 30 (an impact); the left hand
+    // swings as a walker's arm (0.3 m at 1 Hz): no slap. The body walks: no hold.
+    HandTrack t = track(30, 60, [](int) { return 1.2; }, [](int f) { return Vec3(f < 30 ? 2.5 * f / 30.0 : 2.5 + 0.2 * (f - 30) / 30.0, 0, 1.5); });
+    for (int f = 0; f < 60; ++f) t.hand[0][std::size_t(f)] = t.hips[std::size_t(f)] + Vec3(0.15 * std::sin(2 * std::numbers::pi * f / 30.0), 0.2, -0.1);
+    t.first = 100;
+    const std::vector<ContactEvent> events = contact_events(t);
+    const auto slaps = of_variant(events, 'b', Hand::Right);
+    ASSERT_EQ(slaps.size(), 1u);
+    EXPECT_NEAR(slaps[0].moment, 130, 1);
+    EXPECT_EQ(slaps[0].last - slaps[0].first, 2 * int(std::lround(kSlapHalfSeconds * 30)));
+    EXPECT_TRUE(of_variant(events, 'b', Hand::Left).empty());
+    EXPECT_TRUE(of_variant(events, 'a', Hand::Right).empty());
+    // Two such takes: the impacts meet, B's frames shifted by the difference of the moments.
+    HandTrack later = t;
+    later.first = 200;
+    const std::vector<Candidate> found = candidates(t, slaps, later, of_variant(contact_events(later), 'b', Hand::Right));
+    ASSERT_EQ(found.size(), 1u);
+    EXPECT_EQ(found[0].shift(), 100);
+    EXPECT_EQ(found[0].a[0], slaps[0].first);
+    EXPECT_EQ(found[0].b[0], slaps[0].first + 100);
+}
+
+TEST(Propose, StandingIsAHoldForEitherHand) {
+    // Walks at 1.2 m/s, stands from frame 60 to 119 (at 60 fps: one second), walks on.
+    const HandTrack t = track(60, 180, [](int f) { return f >= 60 && f < 120 ? 0.0 : 1.2; }, [](int) { return Vec3(0.3, 0, 1.0); });
+    const std::vector<ContactEvent> events = contact_events(t);
+    for (Hand hand : {Hand::Left, Hand::Right}) {
+        const auto holds = of_variant(events, 'a', hand);
+        ASSERT_EQ(holds.size(), 1u);
+        // The root's speed is a central difference over kStandSeconds: the run's ends move in by
+        // up to half of it.
+        const int reach = int(std::lround(kStandSeconds / 2 * 60));
+        EXPECT_NEAR(holds[0].first, 60, reach);
+        EXPECT_NEAR(holds[0].last, 119, reach);
+    }
+}
+
+// The shipped real pairs with their key segments removed: the true key segment is among the top 3
+// proposals with its type and parts, its A and B frames start within 5 frames of the shipped
+// ranges, and B's shift is the shipped one within 2 frames.
+TEST(Propose, TheShippedPairsProposeTheirKeySegments) {
+    test::TempDir tmp;
+    struct Expected {
+        const char* scene;
+        const char* type;
+        int a0, b0;
+    };
+    for (const Expected& e : {Expected{"demo.toml", "0&0a", 108, 108}, Expected{"highfive.toml", "0&0b", 29, 29}}) {
+        const fs::path file = without_segments(tmp.path(), e.scene, e.scene);
+        const fs::path out = tmp.path() / (std::string(e.scene) + ".out");
+        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'", file.string(), out.string()));
+        ASSERT_EQ(run.exit_code, 0) << e.scene << run.output;
+        const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
+        bool found = false;
+        for (std::size_t n = 0; n < std::min<std::size_t>(3, proposals.size()) && !found; ++n) {
+            const auto& p = proposals[n];
+            found = p["type"] == e.type && p["parts"]["A"] == "right_hand" && p["parts"]["B"] == "right_hand" &&
+                    std::abs(p["a"][0].get<int>() - e.a0) <= 5 && std::abs(p["b"][0].get<int>() - e.b0) <= 5 &&
+                    std::abs(p["shift_frames"].get<int>() - (e.b0 - e.a0)) <= 2;
+        }
+        EXPECT_TRUE(found) << e.scene << "\n" << proposals.dump(1);
+        // The blocks paste into the scene: the scene with the best one edits.
+        const std::string blocks = test::read_text(out / "proposals.toml");
+        std::ofstream(file, std::ios::app) << blocks.substr(0, blocks.find("\n# 2."));
+        const auto edit = test::run_amhv(fmt::format("check '{}'", file.string()));
+        EXPECT_EQ(edit.exit_code, 0) << e.scene << edit.output;
+    }
+}
+
+// Where no pose of B meets A (the sweep's range keeps B 5 m away), there is no proposal: one line
+// and no output.
+TEST(Propose, NoPoseWithinReachIsNoProposal) {
+    test::TempDir tmp;
+    const fs::path file = without_segments(tmp.path(), "highfive.toml", "far.toml", [](std::string& text) {
+        text.replace(text.find("[sampling]"), 10, "[sampling]\nx_range = [5.0, 6.0]\ny_range = [5.0, 6.0]");
+    });
+    const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'", file.string(), (tmp.path() / "out").string()));
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_EQ(test::one_line_error(run), 1) << run.output;
+    EXPECT_NE(run.output.find("no proposal"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(tmp.path() / "out"));
+}
+
+// Both backends propose the same, byte for byte (at 4 cm / 8 degrees, where no proposal is swept
+// again: the CPU reference's sweep at 1 cm takes minutes), and a rerun too.
+TEST(Propose, BothBackendsAndRerunsProposeTheSame) {
+    test::TempDir tmp;
+    const fs::path file = without_segments(tmp.path(), "highfive.toml", "coarse.toml", [](std::string& text) {
+        text.replace(text.find("voxel = 0.01"), 12, "voxel = 0.04");
+        text.replace(text.find("angle_step_deg = 2.0"), 20, "angle_step_deg = 8.0");
+    });
+    std::vector<std::string> tomls;
+    for (const char* backend : {"vulkan", "cpu", "vulkan"}) {
+        const fs::path out = tmp.path() / fmt::format("out_{}", tomls.size());
+        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}' --backend {}", file.string(), out.string(), backend));
+        ASSERT_EQ(run.exit_code, 0) << backend << run.output;
+        tomls.push_back(test::read_text(out / "proposals.toml"));
+    }
+    EXPECT_NE(tomls[0].find("[[segments]]"), std::string::npos);
+    EXPECT_EQ(tomls[0], tomls[1]);
+    EXPECT_EQ(tomls[0], tomls[2]);
+}
+
+// `amhv edit --propose` on a scene without key segments edits with the best proposal; without
+// --propose such a scene is refused, pointing at amhv propose.
+TEST(Propose, EditProposeEditsASceneWithoutKeySegments) {
+    test::TempDir tmp;
+    const fs::path file = without_segments(tmp.path(), "highfive.toml", "open.toml");
+    const auto refused = test::run_amhv(fmt::format("edit '{}' --out '{}' --no-frames --no-glb", file.string(), (tmp.path() / "no").string()));
+    EXPECT_EQ(test::one_line_error(refused), 1) << refused.output;
+    EXPECT_NE(refused.output.find("amhv propose"), std::string::npos) << refused.output;
+    const auto run = test::run_amhv(fmt::format("edit '{}' --propose --out '{}' --no-frames --no-glb", file.string(), (tmp.path() / "out").string()));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const nlohmann::json result = nlohmann::json::parse(test::read_text(tmp.path() / "out" / "result.json"));
+    ASSERT_EQ(result["segments"].size(), 1u);
+    EXPECT_EQ(result["segments"][0]["type"], "0&0b");
+    EXPECT_GT(result["segments"][0]["solutions"].get<int>(), 0);
+}
+
+}  // namespace
+}  // namespace amhv
