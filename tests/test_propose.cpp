@@ -144,6 +144,11 @@ TEST(Propose, TheShippedPairsProposeTheirKeySegments) {
                     std::abs(p["shift_frames"].get<int>() - (e.b0 - e.a0)) <= 2;
         }
         EXPECT_TRUE(found) << e.scene << "\n" << proposals.dump(1);
+        // The page lists them and plays the best one, edited.
+        EXPECT_NE(test::read_text(out / "index.html").find("best/index.html"), std::string::npos);
+        EXPECT_TRUE(fs::is_regular_file(out / "best" / "index.html"));
+        EXPECT_TRUE(fs::is_regular_file(out / "best" / "scene.glb"));
+        EXPECT_EQ(nlohmann::json::parse(test::read_text(out / "best" / "result.json"))["segments"][0]["frames_a"], proposals[0]["a"]);
         // The blocks paste into the scene: the scene with the best one edits.
         const std::string blocks = test::read_text(out / "proposals.toml");
         std::ofstream(file, std::ios::app) << blocks.substr(0, blocks.find("\n# 2."));
@@ -177,7 +182,7 @@ TEST(Propose, BothBackendsAndRerunsProposeTheSame) {
     std::vector<std::string> tomls;
     for (const char* backend : {"vulkan", "cpu", "vulkan"}) {
         const fs::path out = tmp.path() / fmt::format("out_{}", tomls.size());
-        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}' --backend {}", file.string(), out.string(), backend));
+        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}' --backend {} --no-best", file.string(), out.string(), backend));
         ASSERT_EQ(run.exit_code, 0) << backend << run.output;
         tomls.push_back(test::read_text(out / "proposals.toml"));
     }

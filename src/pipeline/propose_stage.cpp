@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "src/core/clock.hpp"
+#include "src/compose/compose_page.hpp"
 #include "src/core/error.hpp"
 #include "src/edit/natural.hpp"
 #include "src/sweep/solution_group.hpp"
@@ -69,6 +70,21 @@ void rank(std::vector<Proposal>& proposals) {
         if (p.score != q.score) return p.score < q.score;
         return p.members > q.members;
     });
+}
+
+// One take's frames as a strip, its contact moments marked (slaps red, holds blue).
+std::string moments_strip(const std::string& name, int first, int last, const std::vector<propose::ContactEvent>& events) {
+    const double width = 900, scale = width / std::max(1, last - first + 1);
+    std::string svg = fmt::format("<h3>{}: frames {}-{}</h3>\n<svg width=\"{:.0f}\" height=\"{}\"><rect x=\"0\" y=\"0\" width=\"{:.0f}\" "
+                                  "height=\"{}\" fill=\"#eee\"/>",
+                                  compose::html_text(name), first, last, width, 12 * 4 + 4, width, 12 * 4 + 4);
+    for (const propose::ContactEvent& e : events) {
+        const int row = (e.variant == 'a' ? 2 : 0) + int(e.hand);
+        svg += fmt::format("<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"10\" fill=\"{}\"><title>{}</title></rect>", (e.first - first) * scale,
+                           2 + 12 * row, std::max(1.0, (e.last - e.first + 1) * scale), e.variant == 'a' ? "#0072B2" : "#D55E00",
+                           compose::html_text(e.why));
+    }
+    return svg + "</svg>\n";
 }
 
 std::string part_list(const PartSpec& p) {
@@ -169,6 +185,35 @@ std::string proposals_toml(const Scene& scene, const ProposeResult& result) {
         s << fmt::format("visibility = {{ enabled = true, half_angle_deg = {:.1f} }}\n", k.visibility.half_angle_deg);
     }
     return s.str();
+}
+
+std::string proposals_page(const Scene& scene, const ProposeResult& result, const std::string& best_note) {
+    std::string page = fmt::format(
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>amhv propose: {0}</title>\n<style>body{{font-family:sans-serif;margin:1em}}"
+        "table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;font-size:13px;vertical-align:top}}pre{{margin:0;font-size:11px}}"
+        "iframe{{width:100%;height:620px;border:1px solid #ccc}}</style></head><body>\n<h1>Key segments proposed for {0}</h1>\n"
+        "<p>Contact moments per take (rows: left slap, right slap, left hold, right hold; hover for the cue). {1} pairs swept, {2} with a member, "
+        "best first (docs/method.md section 13).</p>\n",
+        compose::html_text(scene.file.filename().string()), result.candidates, result.proposals.size());
+    auto title = [](const char* side, const std::string& name) { return name == side ? name : fmt::format("{} ({})", side, name); };
+    page += moments_strip(title("A", scene.a.name), scene.a.frame_first, scene.a.frame_last, result.events_a);
+    page += moments_strip(title("B", scene.b.name), scene.b.frame_first, scene.b.frame_last, result.events_b);
+    page += "<h2>Proposals</h2>\n<table><tr><th>#</th><th>type</th><th>hands (A / B)</th><th>A frames</th><th>B frames</th><th>shift</th>"
+            "<th>members</th><th>natural score</th><th>why</th></tr>\n";
+    for (std::size_t n = 0; n < result.proposals.size(); ++n) {
+        const Proposal& p = result.proposals[n];
+        const ProposalSweep& d = p.decided();
+        page += fmt::format("<tr><td>{}</td><td>{}</td><td>{} / {}</td><td>{}-{}</td><td>{}-{}</td><td>{:+d}</td><td>{} at {} m / {}&deg;</td><td>{:.2f}</td>"
+                            "<td>{}</td></tr>\n",
+                            n + 1, compose::html_text(p.segment.type.name()), propose::hand_part(p.candidate.hand_a), propose::hand_part(p.candidate.hand_b),
+                            p.segment.a[0], p.segment.a[1], p.segment.b[0], p.segment.b[1], p.candidate.shift(), d.members, d.voxel, d.angle_step_deg,
+                            d.score, compose::html_text(p.candidate.why));
+    }
+    page += "</table>\n<p><code>proposals.toml</code> holds each as a <code>[[segments]]</code> block to paste into the scene.</p>\n";
+    page += "<h2>The best proposal, edited</h2>\n";
+    page += best_note.empty() ? "<iframe src=\"best/index.html\" title=\"the best proposal, edited\"></iframe>\n"
+                              : fmt::format("<p>{}</p>\n", compose::html_text(best_note));
+    return page + "</body></html>\n";
 }
 
 }  // namespace amhv::pipeline

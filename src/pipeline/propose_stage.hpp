@@ -52,5 +52,8 @@ void require_proposals(const Scene& scene, const ProposeResult& result);
 // proposals.json's content, and proposals.toml's text.
 results::Json proposals_json(const Scene& scene, const ProposeResult& result);
 std::string proposals_toml(const Scene& scene, const ProposeResult& result);
+// index.html: each take's contact moments as a strip, the ranked table, and the best proposal's
+// edit (best/index.html) in a frame, or `best_note` saying why there is none.
+std::string proposals_page(const Scene& scene, const ProposeResult& result, const std::string& best_note);
 
 }  // namespace amhv::pipeline
