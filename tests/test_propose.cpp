@@ -32,7 +32,6 @@ HandTrack track(double fps, int frames, const std::function<double(int)>& walk, 
         t.hips.emplace_back(x, 0.0, 0.95);
         t.hand[0].push_back(hand(f) + Vec3(0, 0.4, 0));
         t.hand[1].push_back(hand(f));
-        t.heading.push_back(0.0);
     }
     return t;
 }

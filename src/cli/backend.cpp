@@ -14,7 +14,7 @@ void add_backend_options(CLI::App& command, std::string& backend, int& device) {
     command.add_option("--device", device, "Vulkan device index (see `amhv devices`)");
 }
 
-Backend::Backend(const std::string& name, int device) {
+Backend::Backend(const std::string& name, int device) : name_(name) {
     if (name == "vulkan") {
         gpu::ContextOptions options;
         if (device >= 0) options.device_index = std::uint32_t(device);
@@ -49,5 +49,7 @@ Skinner& Backend::skinner() {
     }
     return *skinner_;
 }
+
+pipeline::Backends Backend::backends() { return {voxeliser(), sweeper(), name_, device_, &skinner()}; }
 
 }  // namespace amhv::cli

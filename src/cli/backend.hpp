@@ -10,6 +10,7 @@
 #include "src/body/skinning.hpp"
 #include "src/voxelise/voxelise.hpp"
 #include "src/gpu/context.hpp"
+#include "src/pipeline/sweep_stage.hpp"
 #include "src/sweep/problem.hpp"
 
 namespace amhv::cli {
@@ -26,12 +27,15 @@ public:
     Sweeper& sweeper();
     Skinner& skinner();
     const std::string& device() const { return device_; }  // "name (type, driver)", or "cpu"
+    // The stages' view of it: voxeliser, sweeper, skinner, and how result.json names them.
+    pipeline::Backends backends();
 
 private:
     std::unique_ptr<gpu::Context> context_;  // null for cpu
     std::unique_ptr<Voxeliser> voxeliser_;
     std::unique_ptr<Sweeper> sweeper_;
     std::unique_ptr<Skinner> skinner_;
+    std::string name_;
     std::string device_ = "cpu";
 };
 

@@ -33,9 +33,8 @@ void propose_into(Scene& scene, pipeline::Backends& backends) {
     if (scene.multi_party()) fail(scene.file.string(), "--propose takes a scene of two objects; this one has {}", scene.objects.size());
     const pipeline::ProposeResult result = pipeline::propose_scene(scene, backends);
     pipeline::require_proposals(scene, result);
-    KeySegment best = result.proposals.front().segment;
-    best.index = 1;
-    scene.segments.push_back(best);
+    scene = pipeline::with_proposal(scene, result.proposals.front());
+    const KeySegment& best = scene.segments.front();
     std::cout << fmt::format("proposed: {} on {} / {}, A frames {}-{}, B frames {}-{} (the best of {}; amhv propose lists them)\n", best.type.name(),
                              best.interest_a.labels.front(), best.interest_b.labels.front(), best.a[0], best.a[1], best.b[0], best.b[1],
                              result.proposals.size());
@@ -62,7 +61,7 @@ void run_edit(const EditArguments& args) {
         scene.b = scene.object(scene.b.name);
     }
     Backend backend(args.backend, args.device);
-    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
+    pipeline::Backends backends = backend.backends();
     if (args.propose && scene.segments.empty()) propose_into(scene, backends);
     std::vector<std::filesystem::path> inputs = scene_inputs(scene);
     if (!args.options.from_sweep.empty()) inputs.emplace_back(args.options.from_sweep);

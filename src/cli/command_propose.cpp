@@ -24,9 +24,7 @@ struct ProposeArguments {
 
 // The best proposal edited into `dir` (the page plays it); the reason when its edit fails.
 std::string edit_best(const Scene& scene, const pipeline::Proposal& best, pipeline::Backends& backends, const std::filesystem::path& dir) {
-    Scene edited = scene;
-    edited.segments = {best.segment};
-    edited.segments.front().index = 1;
+    const Scene edited = pipeline::with_proposal(scene, best);
     pipeline::EditRunOptions options;
     options.frames = false;
     options.timings = false;
@@ -43,7 +41,7 @@ std::string edit_best(const Scene& scene, const pipeline::Proposal& best, pipeli
 void run_propose(const ProposeArguments& args) {
     const Scene scene = load_two_object_scene(args.scene, "propose", true);
     Backend backend(args.backend, args.device);
-    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
+    pipeline::Backends backends = backend.backends();
     StagedOutput out(args.out, scene_inputs(scene));
     const pipeline::ProposeResult result = pipeline::propose_scene(scene, backends);
     pipeline::require_proposals(scene, result);

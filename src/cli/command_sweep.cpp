@@ -67,7 +67,7 @@ void run_shard(const SweepArguments& args, std::chrono::steady_clock::time_point
     Scene scene = load_two_object_scene(args.scene, "sweep --shard");
     pipeline::plan_shards(scene, shard.count);  // refuses an impossible N before the backend starts
     Backend backend(args.backend, args.device);
-    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
+    pipeline::Backends backends = backend.backends();
     StagedOutput out(args.out, scene_inputs(scene));
     const results::ShardManifest manifest = pipeline::sweep_shard(scene, backends, out.dir(), shard, args.timings, start);
     out.commit();
@@ -83,7 +83,7 @@ void run_sweep(const SweepArguments& args) {
         throw Error(fmt::format("--segment: {} is not a key segment of {} (1..{})", args.segment, args.scene, scene.segments.size()));
 
     Backend backend(args.backend, args.device);
-    pipeline::Backends backends{backend.voxeliser(), backend.sweeper(), args.backend, backend.device(), &backend.skinner()};
+    pipeline::Backends backends = backend.backends();
     StagedOutput out(args.out, scene_inputs(scene));
     const pipeline::SweepStage stage = pipeline::sweep_scene(scene, backends, out.dir(), {args.segment, args.maps, args.timings, args.csv}, start);
     std::vector<int> empty_segments;

@@ -61,14 +61,20 @@ double natural_weight(const Scene& scene, const KeySegment& key) {
     return key.intent.prefers() ? key.intent.weight : scene.weights.natural;
 }
 
+std::vector<int> natural_samples(int length) {
+    const int count = std::min(kNaturalFrames, length);
+    std::vector<int> out;
+    for (int n = 0; n < count; ++n) out.push_back(count > 1 ? int(std::lround(double(n) * (length - 1) / (count - 1))) : 0);
+    return out;
+}
+
 NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps) {
     NaturalFrames out;
     const auto seg = std::find_if(edit.timeline.segments.begin(), edit.timeline.segments.end(),
                                   [&](const TimelineSegment& s) { return s.key == key_index; });
     if (seg == edit.timeline.segments.end() || seg->length == 0) return out;
-    const int count = std::min(kNaturalFrames, seg->length);
-    for (int n = 0; n < count; ++n) {
-        const int m = seg->first + (count > 1 ? int(std::lround(double(n) * (seg->length - 1) / (count - 1))) : 0);
+    for (const int n : natural_samples(seg->length)) {
+        const int m = seg->first + n;
         out.a.push_back(edit.frames[0][std::size_t(m)].source);
         out.b.push_back(edit.frames[1][std::size_t(m)].source);
     }

@@ -37,6 +37,9 @@ struct NaturalFrames {
     std::vector<Eigen::Vector2d> around_a, around_b;  // roots (capture frames) of the frames around the key
 };
 NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps);
+// The scored frames of a key of `length` normalised frames: at most kNaturalFrames of them, evenly
+// spaced with both ends (indices into the key's frames).
+std::vector<int> natural_samples(int length);
 
 // The weight of a key segment's natural score in the DP's unary cost: weights.natural, or where
 // the key segment states `prefer`, the intent's own weight (the editor's intent leads, and one

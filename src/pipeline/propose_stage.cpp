@@ -17,40 +17,31 @@ namespace amhv::pipeline {
 
 namespace {
 
-// The scored frames of a key segment built by build_segment: at most kNaturalFrames of its
-// normalised frames, evenly spaced with both ends, as natural_frames() takes them from an edit.
+// The scored frames of a key segment built by build_segment, as natural_frames() takes them from
+// an edit (no frames around it: no crowding).
 NaturalFrames segment_frames(const KeySegment& key, const NormalisedPair& frames) {
     NaturalFrames out;
-    const int length = frames.length, count = std::min(kNaturalFrames, length);
-    for (int n = 0; n < count; ++n) {
-        const int m = count > 1 ? int(std::lround(double(n) * (length - 1) / (count - 1))) : 0;
+    for (const int m : natural_samples(frames.length)) {
         out.a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
         out.b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
     }
     return out;
 }
 
-// One key segment swept at `sampling` on the backends, and its best member by natural score.
-ProposalSweep sweep_candidate(const Scene& scene, const KeySegment& key, const Sampling& sampling, ObjectSource& a, ObjectSource& b,
-                              Backends& backends) {
-    Scene at = scene;
-    at.sampling = sampling;
-    const SegmentBuild build = build_segment(at, key, a, b, backends.voxeliser);
+// One key segment swept at the sampling of `scene` on the backends, and its best member by
+// natural score.
+ProposalSweep sweep_candidate(const Scene& scene, const KeySegment& key, ObjectSource& a, ObjectSource& b, Backends& backends) {
+    const SegmentBuild build = build_segment(scene, key, a, b, backends.voxeliser);
     const SweepResult result = backends.sweeper.sweep(build.problem);
     ProposalSweep out;
-    out.voxel = sampling.voxel;
-    out.angle_step_deg = sampling.angle_step_deg;
+    out.voxel = scene.sampling.voxel;
+    out.angle_step_deg = scene.sampling.angle_step_deg;
     out.poses = build.problem.range.size();
     out.rejected = result.rejected;
-    KeySweep sweep;
-    sweep.index = key.index;
-    sweep.root_a = build.problem.a.root;
-    sweep.root_b = build.problem.b.root;
-    sweep.describe = describer(build.problem);
-    sweep.group = solution_group(result);
+    const KeySweep sweep = key_sweep(key, build.problem, result, solution_group(result));
     out.members = sweep.group.size();
     if (sweep.group.empty()) return out;
-    const NaturalScorer scorer(key, sweep, segment_frames(key, build.frames), a, b, backends.voxeliser, sampling.angles());
+    const NaturalScorer scorer(key, sweep, segment_frames(key, build.frames), a, b, backends.voxeliser, scene.sampling.angles());
     const std::vector<double> costs = scorer.costs(sweep.group);
     const std::uint64_t best = std::uint64_t(std::min_element(costs.begin(), costs.end()) - costs.begin());
     out.score = costs[best];
@@ -109,23 +100,30 @@ ProposeResult propose_scene(const Scene& scene, Backends& backends) {
     out.events_b = propose::contact_events(track_b);
     const std::vector<propose::Candidate> candidates = propose::candidates(track_a, out.events_a, track_b, out.events_b);
     out.candidates = int(candidates.size());
-    Sampling coarse = scene.sampling;
-    coarse.voxel = std::max(coarse.voxel, propose::kCoarseVoxel);
-    coarse.angle_step_deg = std::max(coarse.angle_step_deg, propose::kCoarseAngleDeg);
-    if (std::abs(360.0 / coarse.angle_step_deg - std::round(360.0 / coarse.angle_step_deg)) > 1e-9) coarse.angle_step_deg = scene.sampling.angle_step_deg;
+    // The coarse sampling: kCoarseAngleDeg divides 360, and so does a coarser step of the scene's.
+    Scene coarse = scene;
+    coarse.sampling.voxel = std::max(scene.sampling.voxel, propose::kCoarseVoxel);
+    coarse.sampling.angle_step_deg = std::max(scene.sampling.angle_step_deg, propose::kCoarseAngleDeg);
     for (std::size_t c = 0; c < candidates.size(); ++c) {
         Proposal p{candidates[c], propose::candidate_segment(candidates[c], int(c) + 1), {}, std::nullopt};
         p.segment.pair = {scene.a.name, scene.b.name};
-        p.coarse = sweep_candidate(scene, p.segment, coarse, a, b, backends);
+        p.coarse = sweep_candidate(coarse, p.segment, a, b, backends);
         if (p.coarse.members > 0) out.proposals.push_back(std::move(p));
     }
     rank(out.proposals);
-    const bool finer = coarse.voxel != scene.sampling.voxel || coarse.angle_step_deg != scene.sampling.angle_step_deg;
+    const bool finer = coarse.sampling.voxel != scene.sampling.voxel || coarse.sampling.angle_step_deg != scene.sampling.angle_step_deg;
     for (std::size_t n = 0; finer && n < std::min(out.proposals.size(), std::size_t(propose::kRefined)); ++n)
-        out.proposals[n].refined = sweep_candidate(scene, out.proposals[n].segment, scene.sampling, a, b, backends);
+        out.proposals[n].refined = sweep_candidate(scene, out.proposals[n].segment, a, b, backends);
     rank(out.proposals);
     std::erase_if(out.proposals, [](const Proposal& p) { return p.decided().members == 0; });
     out.seconds = seconds_since(start);
+    return out;
+}
+
+Scene with_proposal(const Scene& scene, const Proposal& proposal) {
+    Scene out = scene;
+    out.segments = {proposal.segment};
+    out.segments.front().index = 1;
     return out;
 }
 

@@ -4,9 +4,12 @@
 // natural choice's criteria (src/edit/natural.hpp) at its best member; the best few are swept again
 // at the scene's own sampling. Writes proposals.toml (ready-to-paste [[segments]] blocks) and
 // proposals.json.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "src/edit/natural_terms.hpp"
@@ -45,6 +48,9 @@ struct ProposeResult {
 // Proposals for the two BVH objects of `scene` (its key segments, if any, are not used). Throws
 // amhv::Error naming the scene when an object is not a BVH take.
 ProposeResult propose_scene(const Scene& scene, Backends& backends);
+
+// `scene` with `proposal` as its one key segment (amhv edit --propose, and propose's best/).
+Scene with_proposal(const Scene& scene, const Proposal& proposal);
 
 // Throws amhv::Error naming the scene, in one line, when `result` holds no proposal.
 void require_proposals(const Scene& scene, const ProposeResult& result);

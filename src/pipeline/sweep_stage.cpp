@@ -48,6 +48,8 @@ private:
     bool drawn_ = false;
 };
 
+}  // namespace
+
 KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, SolutionGroup group) {
     KeySweep k;
     k.index = segment.index;
@@ -59,6 +61,8 @@ KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const
     k.rejected = result.rejected;
     return k;
 }
+
+namespace {
 
 // `in_a_party`: a stage of a multi-party edit, whose result.json is not kept (the edit's error line
 // names the nearest miss instead) and which amhv probe cannot take.

@@ -29,6 +29,9 @@ struct SweepStageOptions {
     bool csv = false;  // also segment_N/solutions.csv
 };
 
+// A swept key segment as the edit takes it: its roots, describer, group and counts.
+KeySweep key_sweep(const KeySegment& segment, const SweepProblem& problem, const SweepResult& result, SolutionGroup group);
+
 // Builds, sweeps and writes every key segment into `out` (segment_N/...), printing one line each.
 SweepStage run_sweep_stage(const Scene& scene, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser, Sweeper& sweeper,
                            const std::filesystem::path& out, const SweepStageOptions& options);

@@ -98,7 +98,6 @@ HandTrack hand_track(const BvhMotion& motion, const UnitsAndAxes& units, int fir
         const auto& joints = poses.joints[std::size_t(f)];
         t.hips.push_back(joints[std::size_t(key.hips)]);
         for (int s = 0; s < 2; ++s) t.hand[s].push_back(joints[std::size_t(key.hand[s])]);
-        t.heading.push_back(poses.heading[std::size_t(f)]);
     }
     return t;
 }

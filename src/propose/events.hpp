@@ -47,7 +47,6 @@ struct HandTrack {
     double fps = 0;
     int first = 0;  // frame number of element 0
     std::vector<Vec3> hips, hand[2];
-    std::vector<double> heading;  // the hips' facing, radians about z (averaged over a step)
     int frames() const { return int(hips.size()); }
 };
 HandTrack hand_track(const BvhMotion& motion, const UnitsAndAxes& units, int first, int last, const std::string& source);
