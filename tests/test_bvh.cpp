@@ -1,12 +1,15 @@
 // BVH takes: the reader's tolerance and its errors, the T-pose rule, resampling, and
 // `amhv import-bvh` read back through the mesh, labels and track readers scenes use.
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
 #include <fmt/format.h>
 
+#include "src/body/shapes.hpp"
 #include "src/body/skeleton_body.hpp"
 #include "src/body/skeleton_roles.hpp"
 #include "src/core/error.hpp"
@@ -289,6 +292,56 @@ TEST(SkeletonBody, ShouldersAreTheCollarBonesOfTheCapsuleBody) {
         }
     }
     EXPECT_EQ(vertices, skeleton_body(motion, f, options).vertices.size());
+}
+
+// A tapered capsule is the hull of its two spheres: its volume is the two spherical caps beyond
+// the tangent cone plus the cone's frustum, and its surface is within a tessellation's chord of
+// the spheres and the cone.
+TEST(SkeletonBody, ATaperedCapsuleIsTheHullOfItsTwoSpheres) {
+    const double ra = 0.038, rb = 0.026, length = 0.25;
+    const double c = (ra - rb) / length, s = std::sqrt(1 - c * c);
+    auto cap = [](double r, double h) { return std::numbers::pi * h * h * (3 * r - h) / 3; };
+    const double frustum_height = length * (1 - c * c);
+    const double expected = cap(ra, ra * (1 + c)) + cap(rb, rb * (1 - c)) +
+                            std::numbers::pi * frustum_height * (ra * s * ra * s + ra * s * rb * s + rb * s * rb * s) / 3;
+    const Vec3 a(0.1, -0.2, 0.9), b = a + length * Vec3(0.6, 0.0, 0.8);
+    const TriangleMesh mesh = shapes::tapered_capsule(a, b, ra, rb, 48, 256);
+    EXPECT_NEAR(shapes::signed_volume(mesh) / expected, 1.0, 2e-3);
+    const Vec3 u = (b - a) / length;
+    for (const Vec3& v : mesh.vertices) {
+        // Every vertex on one of the spheres, and none beyond the tangent cone (whose outward
+        // normal in (along, across) is (c, s), at distance ra from A's centre).
+        EXPECT_LT(std::min(std::abs((v - a).norm() - ra), std::abs((v - b).norm() - rb)), 1e-9) << v.transpose();
+        const double along = (v - a).dot(u), across = (v - a - along * u).norm();
+        EXPECT_LT(across * s + along * c - ra, 1e-9) << v.transpose();
+    }
+    // One sphere inside the other: the larger sphere.
+    EXPECT_NEAR(shapes::signed_volume(shapes::tapered_capsule(a, a + Vec3(0.01, 0, 0), 0.05, 0.02, 24, 96)) / (4 * std::numbers::pi * 0.05 * 0.05 * 0.05 / 3), 1.0, 5e-3);
+}
+
+// The capsule body's forearm narrows from its radius at the elbow to an adult's wrist.
+TEST(SkeletonBody, TheForearmNarrowsToTheWrist) {
+    const BvhMotion motion = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
+    const SkeletonBodyOptions options;
+    const auto roles = role_names(motion);
+    const auto global = motion.global_transforms(120);
+    auto joint = [&](const char* role) {
+        const std::size_t j = std::size_t(std::find(roles.begin(), roles.end(), role) - roles.begin());
+        return to_scene_point(global[j].translation(), options.units);
+    };
+    const Vec3 elbow = joint("RightForeArm"), wrist = joint("RightHand");
+    for (const BodyPart& part : skeleton_body_parts(motion, 120, options)) {
+        if (part.name != "right_forearm") continue;
+        double near_wrist = 0, near_elbow = 0;
+        for (const Vec3& v : part.mesh.vertices) {
+            const double s = (v - elbow).dot(wrist - elbow) / (wrist - elbow).squaredNorm();
+            const double across = (v - (elbow + s * (wrist - elbow))).norm();
+            if (std::abs(s - 1) < 0.02) near_wrist = std::max(near_wrist, across);
+            if (std::abs(s) < 0.02) near_elbow = std::max(near_elbow, across);
+        }
+        EXPECT_NEAR(near_wrist, kWristRadius, 0.002);
+        EXPECT_NEAR(near_elbow, bone_radius("RightForeArm", "RightHand"), 0.002);
+    }
 }
 
 TEST(SkeletonRoles, MapJointsByRoleAndNameWhatIsMissing) {

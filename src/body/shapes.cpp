@@ -50,6 +50,25 @@ std::vector<std::pair<double, double>> capsule_profile(double radius, double len
     return profile;
 }
 
+// The hull of a sphere of radius ra at height 0 and one of radius rb at height `length`: each
+// sphere's part whose outward normal leans past the tangent cone's (polar angle acos((ra - rb) /
+// length) from +z), cap_rings rings each, joined by the cone.
+std::vector<std::pair<double, double>> tapered_profile(double ra, double rb, double length, int cap_rings) {
+    const double tangent = std::acos((ra - rb) / length);
+    std::vector<std::pair<double, double>> profile;
+    for (int k = 0; k <= cap_rings; ++k) {  // sphere A, bottom pole to the cone
+        const double phi = std::numbers::pi - (std::numbers::pi - tangent) * k / cap_rings;
+        profile.emplace_back(ra * std::sin(phi), ra * std::cos(phi));
+    }
+    for (int k = 0; k <= cap_rings; ++k) {  // sphere B, the cone to the top pole
+        const double phi = tangent - tangent * k / cap_rings;
+        profile.emplace_back(rb * std::sin(phi), length + rb * std::cos(phi));
+    }
+    profile.front().first = 0;
+    profile.back().first = 0;
+    return profile;
+}
+
 }  // namespace
 
 TriangleMesh sphere(const Vec3& centre, double radius, int rings, int segments) {
@@ -67,6 +86,15 @@ TriangleMesh capsule(const Vec3& a, const Vec3& b, double radius, int cap_rings,
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
     if (length > 0) rotation = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis / length).toRotationMatrix();
     return revolve(capsule_profile(radius, length, cap_rings), segments, rotation, a);
+}
+
+TriangleMesh tapered_capsule(const Vec3& a, const Vec3& b, double ra, double rb, int cap_rings, int segments) {
+    const Vec3 axis = b - a;
+    const double length = axis.norm();
+    // One sphere holds the other: the hull is the larger sphere.
+    if (length <= std::abs(ra - rb)) return ra >= rb ? sphere(a, ra, 2 * cap_rings, segments) : sphere(b, rb, 2 * cap_rings, segments);
+    const Eigen::Matrix3d rotation = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis / length).toRotationMatrix();
+    return revolve(tapered_profile(ra, rb, length, cap_rings), segments, rotation, a);
 }
 
 TriangleMesh box(const Vec3& lo, const Vec3& hi) {

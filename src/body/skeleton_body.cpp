@@ -22,7 +22,7 @@ double bone_radius(const std::string& parent, const std::string& child) {
     if (contains(child, "_end") && contains(parent, "Head")) return 0.10;  // skull
     // A hand is a mitten: about 9 cm across the palm, so 4 cm around the finger bones; the thumb 2 cm.
     if (contains(parent, "Thumb")) return 0.02;
-    if (contains(parent, "Index") || contains(parent, "Finger") || contains(parent, "Hand")) return 0.04;
+    if (contains(parent, "Index") || contains(parent, "Finger") || contains(parent, "Hand")) return kMittenRadius;
     if (contains(parent, "ForeArm")) return 0.038;
     if (contains(parent, "Shoulder")) return 0.055;
     if (contains(parent, "Arm")) return 0.047;
@@ -122,7 +122,10 @@ std::vector<BodyPart> skeleton_body_parts(const BvhMotion& motion, int frame, co
             mesh.append(shapes::sphere((a + b) / 2, radius, options.cap_rings * 2, options.segments));
             continue;
         }
-        mesh.append(shapes::capsule(a, b, radius, options.cap_rings, options.segments));
+        if (contains(parent, "ForeArm") && names[j].ends_with("Hand"))
+            mesh.append(shapes::tapered_capsule(a, b, radius, kWristRadius, options.cap_rings, options.segments));
+        else
+            mesh.append(shapes::capsule(a, b, radius, options.cap_rings, options.segments));
     }
     for (const auto& p : parts)
         for (const Vec3& v : p.mesh.vertices)

@@ -18,6 +18,14 @@ double bone_radius(const std::string& parent, const std::string& child);
 // short of these (marker sets stop at the knuckles) are extended to them.
 inline constexpr double kHandLength = 0.18;
 inline constexpr double kThumbLength = 0.11;
+// A capsule body's hand is a mitten: kMittenRadius around the finger bones makes it about as broad
+// as a palm (8-9 cm), and therefore thicker than a real hand, kHandThickness across the knuckles
+// (the natural choice's depth term allows for the difference: src/edit/natural.cpp).
+inline constexpr double kMittenRadius = 0.04;
+inline constexpr double kHandThickness = 0.03;
+// A forearm narrows from the elbow (bone_radius) to the wrist: an adult wrist is 15-18 cm around
+// (ANSUR II, 2012: means 17.5 cm for men, 15.2 cm for women), a radius of 2.6 cm at their mean.
+inline constexpr double kWristRadius = 0.026;
 
 struct SkinnedFit;
 struct SkeletonBodyOptions {

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "src/body/skeleton_body.hpp"
 #include "src/core/angles.hpp"
 #include "src/core/distance.hpp"
 #include "src/core/parallel.hpp"
@@ -17,6 +18,17 @@ namespace amhv {
 namespace {
 
 double square(double v) { return v * v; }
+
+Vec3 floor_plane(const Vec3& v) { return Vec3(v.x(), v.y(), 0.0); }
+
+// What a side's body adds to its interest part beyond a person's surface: a BVH capsule body's
+// hands are mittens kMittenRadius round the finger bones, a real hand half kHandThickness thick.
+double surface_excess(const ObjectSource& o, const PartSpec& part) {
+    if (o.spec().bvh.empty() || o.spec().body != BodyKind::Capsules || part.kind != PartSpec::Kind::Parts || part.labels.empty()) return 0;
+    for (const std::string& label : part.labels)
+        if (!label.ends_with("hand")) return 0;
+    return kMittenRadius - 0.5 * kHandThickness;
+}
 
 // The area-weighted centroid of a mesh's triangles (the vertex mean when it has no area).
 std::optional<Vec3> surface_centroid(const TriangleMesh& mesh) {
@@ -115,20 +127,22 @@ void NaturalScorer::prepare_tracks(ObjectSource& a, ObjectSource& b) {
     tracks_ = true;
     for (std::size_t t = 0; t < frames_.a.size() && tracks_; ++t) {
         const auto ta = a.track(frames_.a[t]), tb = b.track(frames_.b[t]);
-        if (!ta || !tb || ta->gaze.norm() < 1e-9 || tb->gaze.norm() < 1e-9) {
+        // Headings on the floor plane (see gaze()): a head looking straight up or down has none.
+        if (!ta || !tb || floor_plane(ta->gaze).norm() < 1e-9 || floor_plane(tb->gaze).norm() < 1e-9) {
             tracks_ = false;
             break;
         }
-        eyes_a_.push_back(ta->eye), gazes_a_.push_back(ta->gaze.normalized());
-        eyes_b_.push_back(tb->eye), gazes_b_.push_back(tb->gaze.normalized());
+        eyes_a_.push_back(ta->eye), gazes_a_.push_back(floor_plane(ta->gaze).normalized());
+        eyes_b_.push_back(tb->eye), gazes_b_.push_back(floor_plane(tb->gaze).normalized());
     }
 }
 
 // A's interest part voxelised at each scored frame (by the edit's backend: both give the same
 // volume), each frame on a grid of its own, and the depth of every voxel inside it: the distance
 // from its centre to the nearest outside voxel's centre, less half a voxel.
-void NaturalScorer::prepare_depth(const KeySegment& key, ObjectSource& a, ObjectSource&, Voxeliser& voxeliser) {
+void NaturalScorer::prepare_depth(const KeySegment& key, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser) {
     if (key.interest_a.kind == PartSpec::Kind::WholeMinusInterest) return;
+    depth_allowance_ = surface_excess(a, key.interest_a) + surface_excess(b, key.interest_b);
     std::vector<MeshFrame> meshes(frames_.a.size());
     std::vector<const MeshFrame*> pointers;
     std::vector<VoxelGrid> grids;
@@ -212,7 +226,7 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
     // they coincide: nothing to look away from).
     auto along = [](const Vec3& gaze, const Vec3& u, double length) { return length < 1e-9 ? 0.0 : 1.0 - gaze.dot(u) / length; };
     auto away = [&](const Vec3& gaze, const Vec3& from, const Vec3& to) {
-        const Vec3 u = to - from;
+        const Vec3 u = floor_plane(to - from);
         return along(gaze, u, u.norm());
     };
     double sum = 0;
@@ -220,7 +234,7 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
         const Vec3 eye_b = g.eyes[t] + offset;
         // Each head toward the other's eye: one direction and one length for both (a - b is
         // exactly -(b - a), so this is away() of each, bit for bit).
-        const Vec3 u = eye_b - eyes_a_[t];
+        const Vec3 u = floor_plane(eye_b - eyes_a_[t]);
         const double length = u.norm();
         double a = along(gazes_a_[t], u, length), b = along(g.gazes[t], -u, length);
         if (!g.centroids.empty()) {
@@ -243,7 +257,7 @@ double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
         if (!g.bounds[t].translated(Eigen::Vector3i(pose.i, pose.j, pose.l)).intersects(grid)) continue;
         double deepest = 0;
         for (const auto& c : g.cells[t]) deepest = std::max(deepest, fields_[t].at(c[0] + pose.i, c[1] + pose.j, c[2] + pose.l));
-        sum += deepest;
+        sum += std::max(0.0, deepest - depth_allowance_);
     }
     return sum / double(g.cells.size());
 }

@@ -5,11 +5,13 @@
 // physical or social criterion with its unit and scale; a term that does not apply (no view
 // tracks, no held contact) is left out.
 //   gaze      joint attention: each head looks at the other's eyes or at the contact (the midpoint
-//             of the interest parts' centroids), whichever is nearer its gaze: mean over the key's
-//             frames and both heads of 1 - cos(angle), scale 1 - cos 30 deg (the default view
-//             cone's half angle);
+//             of the interest parts' centroids), whichever is nearer its gaze, on the floor plane
+//             (a placement turns gazes about the vertical only; a capture's head pitch is its
+//             marker set's as much as the eyes'): mean over the key's frames and both heads of
+//             1 - cos(angle), scale 1 - cos 30 deg (the default view cone's half angle);
 //   depth     contact that touches rather than merges: mean over the key's frames of the deepest
-//             point of B's interest part inside A's (metres), scale 1 cm;
+//             point of B's interest part inside A's (metres) beyond what the bodies add to a
+//             person's surface there (capsule hands: mittens), scale 1 cm;
 //   sliding   a held contact (0&0 (a)) moves together: RMS over the key's frames of the interest
 //             parts' relative offset about its mean (metres), scale 2 cm;
 //   crowding  outside the contact people keep out of each other's intimate zone: over the frames
@@ -83,6 +85,7 @@ private:
     bool tracks_ = false;
     std::vector<Vec3> eyes_a_, gazes_a_, eyes_b_, gazes_b_;  // capture frames
     std::vector<Vec3> centroids_a_;  // A's interest part's centroid per frame (empty: none)
+    double depth_allowance_ = 0;  // metres of depth the bodies' mittens add when hands touch (depth())
     std::vector<Field> fields_;                             // per frame (empty: no depth term)
     std::vector<Angle> angles_;
     std::size_t points_ = kNaturalPoints;
