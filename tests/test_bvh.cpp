@@ -261,6 +261,13 @@ TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
 // Joints by role: the 18/19 skeleton keeps its names, the 20/21 one (LeftCollar, LeftShoulder =
 // upper arm, LeftElbow, LeftWrist, lhand, LeftHip, LeftKnee, lowerback, Chest2) maps onto them, and
 // a skeleton that lacks a role says which.
+// The scene position of the joint playing `role` at `frame`.
+Vec3 joint_at(const BvhMotion& motion, int frame, const char* role, const UnitsAndAxes& units) {
+    const auto roles = role_names(motion);
+    const std::size_t j = std::size_t(std::find(roles.begin(), roles.end(), role) - roles.begin());
+    return to_scene_point(motion.global_transforms(frame)[j].translation(), units);
+}
+
 // The capsule body's shoulders: each side's collar bone, from the base of the neck to the shoulder
 // joint, as its own part; the skinned body keeps them in its torso. Either way the body is the
 // same union (the parts only regroup capsules).
@@ -273,12 +280,7 @@ TEST(SkeletonBody, ShouldersAreTheCollarBonesOfTheCapsuleBody) {
     }
     const int f = 120;
     const SkeletonBodyOptions options;
-    const auto roles = role_names(motion);
-    const auto global = motion.global_transforms(f);
-    auto joint = [&](const char* role) {
-        const std::size_t j = std::size_t(std::find(roles.begin(), roles.end(), role) - roles.begin());
-        return to_scene_point(global[j].translation(), options.units);
-    };
+    auto joint = [&](const char* role) { return joint_at(motion, f, role, options.units); };
     std::size_t vertices = 0;
     for (const BodyPart& part : skeleton_body_parts(motion, f, options)) {
         vertices += part.mesh.vertices.size();
@@ -295,8 +297,7 @@ TEST(SkeletonBody, ShouldersAreTheCollarBonesOfTheCapsuleBody) {
 }
 
 // A tapered capsule is the hull of its two spheres: its volume is the two spherical caps beyond
-// the tangent cone plus the cone's frustum, and its surface is within a tessellation's chord of
-// the spheres and the cone.
+// the tangent cone plus the cone's frustum; its vertices lie on the spheres, none beyond the cone.
 TEST(SkeletonBody, ATaperedCapsuleIsTheHullOfItsTwoSpheres) {
     const double ra = 0.038, rb = 0.026, length = 0.25;
     const double c = (ra - rb) / length, s = std::sqrt(1 - c * c);
@@ -323,13 +324,7 @@ TEST(SkeletonBody, ATaperedCapsuleIsTheHullOfItsTwoSpheres) {
 TEST(SkeletonBody, TheForearmNarrowsToTheWrist) {
     const BvhMotion motion = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
     const SkeletonBodyOptions options;
-    const auto roles = role_names(motion);
-    const auto global = motion.global_transforms(120);
-    auto joint = [&](const char* role) {
-        const std::size_t j = std::size_t(std::find(roles.begin(), roles.end(), role) - roles.begin());
-        return to_scene_point(global[j].translation(), options.units);
-    };
-    const Vec3 elbow = joint("RightForeArm"), wrist = joint("RightHand");
+    const Vec3 elbow = joint_at(motion, 120, "RightForeArm", options.units), wrist = joint_at(motion, 120, "RightHand", options.units);
     for (const BodyPart& part : skeleton_body_parts(motion, 120, options)) {
         if (part.name != "right_forearm") continue;
         double near_wrist = 0, near_elbow = 0;
