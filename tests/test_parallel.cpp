@@ -1,6 +1,7 @@
 // The host's parallel loop (core/parallel.hpp): every item runs exactly once whatever the thread
 // count, the first exception comes back to the caller after every thread has stopped, and an
-// empty loop runs nothing.
+// empty loop runs nothing; copy_on_threads copies every byte and no more.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <stdexcept>
@@ -22,6 +23,17 @@ TEST(ParallelFor, EveryItemRunsOnce) {
             parallel_for(count, [&](std::size_t i) { ++runs[i]; }, threads);
             for (std::size_t i = 0; i < count; ++i) EXPECT_EQ(runs[i].load(), 1) << "threads " << threads << " count " << count << " item " << i;
         }
+    }
+}
+
+TEST(ParallelFor, CopyOnThreadsCopiesEveryByteAndNoMore) {
+    // Sizes around the 4 MiB pieces: none, less than one, exactly two, and a ragged last piece.
+    for (std::size_t bytes : {std::size_t(0), std::size_t(13), std::size_t(8) << 20, (std::size_t(12) << 20) + 17}) {
+        std::vector<unsigned char> from(bytes), to(bytes + 64, 0xAB);
+        for (std::size_t i = 0; i < bytes; ++i) from[i] = static_cast<unsigned char>((i * 2654435761u) >> 13);
+        copy_on_threads(to.data(), from.data(), bytes);
+        EXPECT_TRUE(std::equal(from.begin(), from.end(), to.begin())) << bytes;
+        EXPECT_TRUE(std::all_of(to.begin() + std::ptrdiff_t(bytes), to.end(), [](unsigned char c) { return c == 0xAB; })) << bytes;
     }
 }
 

@@ -6,11 +6,13 @@
 #include <numbers>
 #include <numeric>
 #include <random>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
 #include "src/body/shapes.hpp"
 #include "src/core/error.hpp"
+#include "src/core/parallel.hpp"
 #include "src/sweep/sweep_vulkan.hpp"
 #include "host/reference/pose_probe.hpp"
 #include "host/reference/sweep_reference.hpp"
@@ -696,6 +698,17 @@ TEST(Sweep, WorkSplittingMatchesReference) {
                                                     .pose_test_pairs = 0});
         EXPECT_EQ(rounds.sweep(problem).outcomes, both.reference.outcomes);
         test::expect_no_validation_messages();
+        // With a round per core, a batch holds balanced_rounds rounds over the cores, or as many whole
+        // rounds as max_balanced_poses holds (one at least).
+        const std::uint64_t per_angle = problem.range.size() / std::uint64_t(problem.range.angles), cores = core_count();
+        for (const auto& [rounds_wanted, poses, angles_per_batch] : {std::tuple{2, std::uint64_t(1) << 40, 2 * cores},
+                                                                     std::tuple{4, 3 * cores * per_angle, 3 * cores},
+                                                                     std::tuple{4, per_angle, cores}}) {
+            gpu::VulkanSweeper balanced(test::context(), {.max_poses_per_batch = per_angle, .balanced_rounds = rounds_wanted, .max_balanced_poses = poses});
+            EXPECT_EQ(balanced.sweep(problem).outcomes, both.reference.outcomes);
+            const std::uint64_t angles = std::uint64_t(problem.range.angles);
+            EXPECT_EQ(balanced.last_stats().batches, (angles + angles_per_batch - 1) / angles_per_batch) << rounds_wanted << " rounds";
+        }
         if (std::string(type) == "0&0b") {
             EXPECT_GT(both.gpu.rejected[2], 0u);
             EXPECT_GT(both.gpu.solutions, 0u);

@@ -9,8 +9,9 @@
 //   build/tools/amhv_bench_growth --plot TABLE.csv OUT.png
 //
 // Per stage figures (seconds, poses, maps, runs cut, pulled runs, run pairs, blocks, pose tests) go to stderr.
-// For trying the sweeper's settings: AMHV_MAP_PASSES and AMHV_POSE_TEST_PAIRS set
-// SweeperOptions::map_passes and ::pose_test_pairs.
+// For trying the sweeper's settings: AMHV_MAP_PASSES, AMHV_POSE_TEST_PAIRS, AMHV_POSES_PER_BATCH and
+// AMHV_ANGLES_PER_ROUND set SweeperOptions::map_passes, ::pose_test_pairs, ::max_poses_per_batch and
+// ::angles_per_core_round.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -63,6 +64,8 @@ int measure(const std::string& scene_file, int segment, double voxel, double ste
     gpu::SweeperOptions options;
     if (const char* passes = std::getenv("AMHV_MAP_PASSES")) options.map_passes = std::atoi(passes);
     if (const char* pairs = std::getenv("AMHV_POSE_TEST_PAIRS")) options.pose_test_pairs = std::atof(pairs);
+    if (const char* poses = std::getenv("AMHV_POSES_PER_BATCH")) options.max_poses_per_batch = std::strtoull(poses, nullptr, 10);
+    if (const char* round = std::getenv("AMHV_ANGLES_PER_ROUND")) options.angles_per_core_round = std::atoi(round);
     gpu::VulkanSweeper sweeper(context, options);
     start = std::chrono::steady_clock::now();
     const SweepResult result = sweeper.sweep(problem);
@@ -81,7 +84,8 @@ int measure(const std::string& scene_file, int segment, double voxel, double ste
                                  names[k], s.seconds_per_stage[std::size_t(k)], s.poses_per_stage[std::size_t(k)], s.maps_per_stage[std::size_t(k)],
                                  s.runs_cut_per_stage[std::size_t(k)], s.pulled_runs_per_stage[std::size_t(k)], s.run_pairs_per_stage[std::size_t(k)],
                                  s.blocks_per_stage[std::size_t(k)], s.pose_tests_per_stage[std::size_t(k)]);
-    std::cerr << fmt::format("waiting for the device: {:.3f} s of {:.3f} s, {} submits\n", s.device_wait_seconds, sweep, s.submits);
+    std::cerr << fmt::format("waiting for the device: {:.3f} s of {:.3f} s, {} submits, {} batches\n", s.device_wait_seconds, sweep, s.submits,
+                             s.batches);
     std::cout << fmt::format("{},{},{},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{},{},{},{},{:.0f}\n", voxel, step, problem.range.size(),
                              result.solutions, mhv, sweep, s.seconds_per_stage[0], s.seconds_per_stage[1], s.seconds_per_stage[2],
                              s.seconds_per_stage[3], pairs, tests, pulled, s.submits, peak_mib());

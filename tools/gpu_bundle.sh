@@ -28,6 +28,8 @@ cp "${bins[@]}" "$stage/bin/"
 cp /usr/bin/time "$stage/bin/time"  # GNU time (wall and peak memory); the GPU machine's image has none
 # Where the build's source lay: the tests look for the binaries and data there.
 sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build/CMakeCache.txt" > "$stage/source_dir"
+# And where the build lay: the tests run the `amhv` and the scene generator they were built beside.
+realpath "$build" > "$stage/build_dir"
 for b in "${bins[@]}"; do ldd "$b" | awk '$3 ~ /^\// {print $3}'; done | sort -u |
   grep -v -E '/(libc|libm|libpthread|libdl|librt|ld-linux-x86-64)\.so' | while read -r lib; do cp -L "$lib" "$stage/lib/"; done
 lib=/usr/lib/x86_64-linux-gnu

@@ -22,7 +22,7 @@ if [ $# -lt 2 ] || [ ! -f "$1" ]; then echo "usage: tools/gpu_checks.sh BUNDLE.t
 bundle="$1"; out="$2"; base="${3:-}"
 if [ -e "$out" ] && [ -n "$(ls -A "$out")" ]; then echo "gpu_checks: $out is not empty; name a new folder" >&2; exit 2; fi
 steps=" ${GPU_STEPS:-tests bench b4 b3 b3_5mm} "
-tests_s="${GPU_TESTS_S:-75}"; edit10_s="${GPU_EDIT10_S:-60}"; edit5_s="${GPU_EDIT5_S:-215}"; bench_s="${GPU_BENCH_S:-60}"
+tests_s="${GPU_TESTS_S:-150}"; edit10_s="${GPU_EDIT10_S:-60}"; edit5_s="${GPU_EDIT5_S:-215}"; bench_s="${GPU_BENCH_S:-60}"
 g=/tmp/g
 start=$(date +%s)
 elapsed() { echo "[$(( $(date +%s) - start )) s] $*"; }
@@ -31,11 +31,14 @@ mkdir -p "$g" "$out" && tar -xJf "$bundle" -C "$g"
 # The tests look for the binaries and data where the build that made them lay.
 src_dir=$(cat "$g/source_dir" 2>/dev/null)
 if [ -n "$src_dir" ] && [ ! -e "$src_dir" ]; then mkdir -p "$(dirname "$src_dir")" && ln -s "$PWD" "$src_dir"; fi
-# Only where nothing lies yet: a build already there is left as it is.
-if [ -n "$src_dir" ]; then
-  mkdir -p "$src_dir/build/tools"
-  [ -e "$src_dir/build/amhv" ] || ln -s "$g/bin/amhv" "$src_dir/build/amhv"
-  [ -e "$src_dir/build/tools/amhv_make_paper_scene" ] || ln -s "$g/bin/amhv_make_paper_scene" "$src_dir/build/tools/amhv_make_paper_scene"
+# The build folder the tests name (older bundles: the source's build/). Only where nothing lies
+# yet: a build already there is left as it is.
+build_dir=$(cat "$g/build_dir" 2>/dev/null)
+[ -z "$build_dir" ] && [ -n "$src_dir" ] && build_dir="$src_dir/build"
+if [ -n "$build_dir" ]; then
+  mkdir -p "$build_dir/tools"
+  [ -e "$build_dir/amhv" ] || ln -s "$g/bin/amhv" "$build_dir/amhv"
+  [ -e "$build_dir/tools/amhv_make_paper_scene" ] || ln -s "$g/bin/amhv_make_paper_scene" "$build_dir/tools/amhv_make_paper_scene"
 fi
 export LD_LIBRARY_PATH="$g/lib" AMHV_THREE_DIR="$g/three" VK_LAYER_PATH="$g/layers" AMHV_DATA_DIR="$PWD/data"
 for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json; do

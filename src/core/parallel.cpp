@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <cstring>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -144,6 +145,16 @@ void parallel_for(std::size_t count, const std::function<void(std::size_t)>& wor
         loop.run();
     }  // joined here
     loop.rethrow();
+}
+
+void copy_on_threads(void* to, const void* from, std::size_t bytes) {
+    constexpr std::size_t kPiece = std::size_t(4) << 20;
+    auto* out = static_cast<unsigned char*>(to);
+    const auto* in = static_cast<const unsigned char*>(from);
+    parallel_for((bytes + kPiece - 1) / kPiece, [&](std::size_t piece) {
+        const std::size_t at = piece * kPiece;
+        std::memcpy(out + at, in + at, std::min(kPiece, bytes - at));
+    });
 }
 
 }  // namespace amhv

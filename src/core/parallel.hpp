@@ -18,4 +18,9 @@ void parallel_for(std::size_t count, const std::function<void(std::size_t)>& wor
 // The threads parallel_for uses by default: one per core (at least 1).
 unsigned core_count();
 
+// memcpy(to, from, bytes) in pieces of 4 MiB on parallel_for's threads: for large copies out of
+// mapped device buffers into fresh host memory, whose first touch (the kernel clearing its pages)
+// costs as much as the copy.
+void copy_on_threads(void* to, const void* from, std::size_t bytes);
+
 }  // namespace amhv

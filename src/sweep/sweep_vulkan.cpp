@@ -90,6 +90,7 @@ SweepResult SweepRun::run() {
     const int first = problem_.first_angle, end = problem_.angle_end();
     for (int angle_first = first; angle_first < end; angle_first += angles_per_batch_) {
         sweep_batch(angle_first, std::min(angles_per_batch_, end - angle_first));
+        ++tools_.stats.batches;
         if (tools_.progress) tools_.progress(std::min(angle_first + angles_per_batch_, end) - first, end - first);
     }
     result_.count();

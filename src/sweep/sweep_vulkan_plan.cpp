@@ -336,7 +336,8 @@ void SweepRun::upload_angle_tables() {
 }
 
 // Batches of angles: at most max_poses_per_batch poses, rounded up to whole rounds of angles over
-// the cores, and no more than the map bytes a batch may hold (one bit per offset, a row of words
+// the cores (and, with one round per core, to balanced_rounds of them within max_balanced_poses),
+// and no more than the map bytes a batch may hold (one bit per offset, a row of words
 // per j, per angle and map). Pose-by-pose dispatches take a batch in slices (poses_per_dispatch).
 void SweepRun::size_batches() {
     const SweeperOptions& options = tools_.options;
@@ -352,9 +353,15 @@ void SweepRun::size_batches() {
     if (map_bytes_per_angle > max_map_bytes)
         fail("sweep", "the overlap maps of one angle need {} bytes, more than the {} a batch may hold; narrow the x/y range", map_bytes_per_angle,
              max_map_bytes);
-    const std::uint64_t round = options.angles_per_core_round > 0 ? std::uint64_t(options.angles_per_core_round) : core_count();
+    const bool per_core = options.angles_per_core_round <= 0;
+    const std::uint64_t round = per_core ? core_count() : std::uint64_t(options.angles_per_core_round);
     const std::uint64_t poses_per_angle = per_angle_ * std::uint64_t(heights_);
     std::uint64_t batch_limit = (max_poses / poses_per_angle + round - 1) / round * round;
+    if (per_core) {
+        // Several rounds over the cores, as far as the balanced poses allow (whole rounds, one at least).
+        const std::uint64_t rounds_in_poses = std::max<std::uint64_t>(1, options.max_balanced_poses / poses_per_angle / round);
+        batch_limit = std::max(batch_limit, round * std::min<std::uint64_t>(std::uint64_t(std::max(1, options.balanced_rounds)), rounds_in_poses));
+    }
     if (map_bytes_per_angle > 0) batch_limit = std::min(batch_limit, max_map_bytes / map_bytes_per_angle);
     angles_per_batch_ = int(std::max<std::uint64_t>(1, batch_limit));
     if (width_ > 0xffff || height_ > 0xffff)
