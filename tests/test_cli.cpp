@@ -342,7 +342,13 @@ TEST(Cli, DevicesListsLavapipeAndMarksTheChosenOne) {
     EXPECT_NE(result.output.find("* [0]"), std::string::npos) << result.output;
     EXPECT_NE(result.output.find("max storage buffer range"), std::string::npos);
     EXPECT_NE(result.output.find("subgroup size"), std::string::npos);
-    EXPECT_NE(result.output.find("the sweep's buffers: host memory, read by the device in place"), std::string::npos) << result.output;
+    // The sweep's buffers follow the chosen device: read in place where it works in host memory
+    // (lavapipe here, an integrated GPU), moved by transfers on a discrete GPU (the GPU machines).
+    const std::size_t chosen = result.output.find("* [");
+    const bool discrete = chosen != std::string::npos && result.output.substr(chosen, result.output.find('\n', chosen) - chosen).find("(discrete)") != std::string::npos;
+    EXPECT_NE(result.output.find(discrete ? "the sweep's buffers: device-local memory, moved by transfers (a discrete GPU)"
+                                          : "the sweep's buffers: host memory, read by the device in place"),
+              std::string::npos) << result.output;
     auto missing = test::run_amhv("devices --device 42");
     EXPECT_NE(missing.exit_code, 0);
     EXPECT_EQ(test::one_line_error(missing), 1) << missing.output;
