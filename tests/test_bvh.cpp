@@ -258,9 +258,6 @@ TEST(ImportBvh, BadRequestsAreOneLineErrorsWithNoOutput) {
     }
 }
 
-// Joints by role: the 18/19 skeleton keeps its names, the 20/21 one (LeftCollar, LeftShoulder =
-// upper arm, LeftElbow, LeftWrist, lhand, LeftHip, LeftKnee, lowerback, Chest2) maps onto them, and
-// a skeleton that lacks a role says which.
 // The scene position of the joint playing `role` at `frame`.
 Vec3 joint_at(const BvhMotion& motion, int frame, const char* role, const UnitsAndAxes& units) {
     const auto roles = role_names(motion);
@@ -339,6 +336,9 @@ TEST(SkeletonBody, TheForearmNarrowsToTheWrist) {
     }
 }
 
+// Joints by role: the 18/19 skeleton keeps its names, the 20/21 one (LeftCollar, LeftShoulder =
+// upper arm, LeftElbow, LeftWrist, lhand, LeftHip, LeftKnee, lowerback, Chest2) maps onto them, and
+// a skeleton that lacks a role says which.
 TEST(SkeletonRoles, MapJointsByRoleAndNameWhatIsMissing) {
     const BvhMotion cmu18 = load_bvh((test::source_dir() / "data/cmu/18_01.bvh").string(), {});
     const std::vector<std::string> same = role_names(cmu18);

@@ -345,7 +345,8 @@ TEST(Cli, DevicesListsLavapipeAndMarksTheChosenOne) {
     // The sweep's buffers follow the chosen device: read in place where it works in host memory
     // (lavapipe here, an integrated GPU), moved by transfers on a discrete GPU (the GPU machines).
     const std::size_t chosen = result.output.find("* [");
-    const bool discrete = chosen != std::string::npos && result.output.substr(chosen, result.output.find('\n', chosen) - chosen).find("(discrete)") != std::string::npos;
+    const std::string chosen_line = chosen == std::string::npos ? "" : result.output.substr(chosen, result.output.find('\n', chosen) - chosen);
+    const bool discrete = chosen_line.find("(discrete)") != std::string::npos;
     EXPECT_NE(result.output.find(discrete ? "the sweep's buffers: device-local memory, moved by transfers (a discrete GPU)"
                                           : "the sweep's buffers: host memory, read by the device in place"),
               std::string::npos) << result.output;

@@ -704,7 +704,8 @@ TEST(Sweep, WorkSplittingMatchesReference) {
         for (const auto& [rounds_wanted, poses, angles_per_batch] : {std::tuple{2, std::uint64_t(1) << 40, 2 * cores},
                                                                      std::tuple{4, 3 * cores * per_angle, 3 * cores},
                                                                      std::tuple{4, per_angle, cores}}) {
-            gpu::VulkanSweeper balanced(test::context(), {.max_poses_per_batch = per_angle, .balanced_rounds = rounds_wanted, .max_balanced_poses = poses});
+            gpu::VulkanSweeper balanced(test::context(),
+                                        {.max_poses_per_batch = per_angle, .balanced_rounds = rounds_wanted, .max_balanced_poses = poses});
             EXPECT_EQ(balanced.sweep(problem).outcomes, both.reference.outcomes);
             const std::uint64_t angles = std::uint64_t(problem.range.angles);
             EXPECT_EQ(balanced.last_stats().batches, (angles + angles_per_batch - 1) / angles_per_batch) << rounds_wanted << " rounds";

@@ -86,15 +86,13 @@ std::vector<std::uint8_t> SweepRun::run_map(MapTest& test, int stage, int angle_
     // The poses in play not decided yet; without candidates, every pose once the first pass is in.
     // Host work per angle (or view), on all cores while the device waits.
     auto for_each_angle = [&](const auto& work) { parallel_for(std::size_t(batch_angles), [&](std::size_t a) { work(int(a)); }); };
-    // Kept between maps and batches (the same size batch after batch: no clearing), filled per
-    // view on all cores; without candidates it holds nothing until the first pass closes poses.
+    // Kept between maps and batches (the same size batch after batch: no clearing), filled on all
+    // cores; without candidates it holds nothing until the first pass closes poses.
     std::vector<std::uint8_t>& open = open_scratch_;
     bool open_known = candidates != nullptr;
     if (candidates) {
         open.resize(candidates->size());
-        parallel_for(std::size_t(views(batch_angles)), [&](std::size_t v) {
-            std::copy_n(candidates->data() + v * per_angle_, per_angle_, open.data() + v * per_angle_);
-        });
+        copy_on_threads(open.data(), candidates->data(), std::size_t(views(batch_angles)) * per_angle_);
     }
     Rows open_rows = rows;  // per view: the box of the poses in play
     if (!runs_cut) cut_angles(test, angle_first, batch_angles, rows, nullptr);
