@@ -5,7 +5,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -127,6 +129,31 @@ TEST(Natural, GazeIsJudgedOnTheFloorPlane) {
     EXPECT_NEAR(scorer.terms(away).gaze, 0.5 * (0 + 2), 1e-9);
 }
 
+TEST(Natural, AWalkerMayLookAlongItsPath) {
+    // A stands looking along +x at B, 60 cm along +x; B looks along +y of its capture frame, 90
+    // degrees from A, and moves along +y at `speed`. Walking (1 m/s) it may look where it goes: its
+    // term is 0, and only A's small angle to B's moving eye is left. Swaying (0.3 m/s, under
+    // kWalkingSpeed) it is judged by where it looks: 1 - cos 90 degrees = 1.
+    auto gaze_at = [](double speed, double fps_check) {
+        NaturalFixture f([](int) { return kCentre; }, [&](int t) -> Vec3 { return kCentre + Vec3(0, speed / 25.0 * t, 0); }, Vec3::UnitX(),
+                         Vec3::UnitY());
+        EXPECT_EQ(f.b->spec().fps, fps_check);  // the step per frame above assumes the mesh default
+        KeySweep sweep;
+        const PoseIndex member{60, 0, 0, 0};
+        const NaturalScorer scorer = f.scorer(sweep, {member}, kCentre, kCentre);
+        return scorer.terms(member).gaze;
+    };
+    double a_terms = 0;  // A toward B's eye (and the contact, in the same direction): atan(step t / 0.6)
+    for (int t = 0; t < 4; ++t) a_terms += 1.0 - std::cos(std::atan(0.04 * t / 0.6));
+    EXPECT_NEAR(gaze_at(1.0, 25.0), a_terms / 8.0, 1e-6);
+    double swaying = 0;
+    for (int t = 0; t < 4; ++t) {  // B looks along +y; A (and the contact) lie along (-0.6, -0.012 t)
+        const double step = 0.012 * t;
+        swaying += 1.0 - std::cos(std::atan(step / 0.6)) + 1.0 + step / std::hypot(0.6, step);
+    }
+    EXPECT_NEAR(gaze_at(0.3, 25.0), swaying / 8.0, 1e-6);
+}
+
 TEST(Natural, AHeldContactWhosePartsSlideLosesToOneWhosePartsMoveTogether) {
     // Both boxes move 3 cm a frame along +y of their capture frames. Unturned, B's moves with A's;
     // turned by 180 degrees it moves the other way: the contact slides by 6 cm a frame.
@@ -139,6 +166,56 @@ TEST(Natural, AHeldContactWhosePartsSlideLosesToOneWhosePartsMoveTogether) {
     // Relative offsets -0.06 t (t = 0..3) about their mean: RMS 0.06 sqrt(1.25).
     EXPECT_NEAR(scorer.terms(sliding).sliding_m, 0.06 * std::sqrt(1.25), 1e-9);
     EXPECT_LT(scorer.terms(together).cost(), scorer.terms(sliding).cost());
+}
+
+// A strike's limbs: both objects hold one pose of the CMU 20_11 high five (its frame 33, the
+// slap, for four frames). B is A's own pose, so B's shoulder-to-wrist line on the floor is A's
+// turned by theta, and the reach term is 1 - cos of the angle between A's and B's reversed:
+// 1 + cos theta whatever the member's offset: 2 unturned, 1 at 90 and 270 degrees, 0 at 180.
+// Unturned, B's limb is A's moved by the member's offset t, so each wrist lies |t x u| off the
+// other's line (u: the limb's floor direction): for t = 0.6 m along x and along y, whatever u,
+// the two distances make a right triangle's legs with hypotenuse 0.6 m. A held contact (0&0 a)
+// has no reach term.
+TEST(Natural, AStrikesLimbsPointAtEachOther) {
+    test::TempDir dir;
+    const std::string take = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
+    const std::size_t motion = take.find("MOTION");
+    ASSERT_NE(motion, std::string::npos);
+    std::istringstream rows(take.substr(motion));
+    std::string line, pose;
+    for (int n = 0; std::getline(rows, line); ++n)
+        if (n == 3 + 33) pose = line;  // MOTION, Frames:, Frame Time:, then frame 0
+    ASSERT_FALSE(pose.empty());
+    std::ofstream(dir.path() / "pose.bvh") << take.substr(0, motion) << "MOTION\nFrames: 4\nFrame Time: 0.0333333\n"
+                                           << pose << "\n" << pose << "\n" << pose << "\n" << pose << "\n";
+    auto scene_text = [](const std::string& type) {
+        return "[sampling]\nvoxel = 0.01\nangle_step_deg = 90\n\n[objects.A]\nbvh = \"pose.bvh\"\ntpose = \"keep\"\n\n[objects.B]\nbvh = "
+               "\"pose.bvh\"\ntpose = \"keep\"\n\n[[segments]]\na = [0, 3]\nb = [0, 3]\ntype = \"" + type +
+               "\"\ninterest = { A = { parts = [\"right_hand\"] }, B = { parts = [\"right_hand\"] } }\n";
+    };
+    for (const std::string type : {"0&0b", "0&0a"}) {
+        std::ofstream(dir.path() / "scene.toml") << scene_text(type);
+        const Scene scene = load_scene(dir.path() / "scene.toml");
+        ObjectSource a(scene.a), b(scene.b);
+        ReferenceVoxeliser voxeliser;
+        KeySweep sweep;
+        sweep.describe = PoseDescriber{0.01, 90, Eigen::Vector2d::UnitX(), Eigen::Vector2d::UnitX()};
+        const std::vector<PoseIndex> members{{60, 0, 0, 0}, {0, 60, 0, 0}, {0, 60, 1, 0}, {-60, 0, 2, 0}, {45, 45, 2, 0}, {0, -60, 3, 0}};
+        for (const PoseIndex& p : members) sweep.group.add(p);
+        const NaturalScorer scorer(scene.segments[0], sweep, NaturalFrames{{0, 1, 2, 3}, {0, 1, 2, 3}, {}, {}}, a, b, voxeliser, 4);
+        for (const PoseIndex& p : members) {
+            const double reach = scorer.terms(p).reach;
+            if (type == "0&0a") {
+                EXPECT_TRUE(std::isnan(reach)) << "a held contact is not a strike";
+                continue;
+            }
+            EXPECT_NEAR(reach, 1.0 + std::cos(p.k * std::numbers::pi / 2), 1e-9) << "theta " << 90 * p.k;
+        }
+        if (type == "0&0a") continue;
+        const double along_x = scorer.terms(members[0]).reach_offset_m, along_y = scorer.terms(members[1]).reach_offset_m;
+        EXPECT_NEAR(std::hypot(along_x, along_y), 0.6, 1e-9);
+        EXPECT_GT(std::min(along_x, along_y), 0.01) << "the limb points along neither axis in this pose";
+    }
 }
 
 // The shipped handshake, which states no `prefer`: the natural score, not the editor's arbitrary

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "src/body/skeleton_body.hpp"
+#include "src/body/skeleton_roles.hpp"
 #include "src/core/angles.hpp"
 #include "src/core/distance.hpp"
 #include "src/core/parallel.hpp"
@@ -56,6 +57,59 @@ std::vector<Vec3> sample_points(const TriangleMesh& mesh, std::size_t count) {
     return out;
 }
 
+// 1 - cos of the angle between a head's floor gaze (unit) at `frame` and the floor direction its
+// eye travels over kWalkingWindow either side, when that travel is at least kWalkingSpeed; NaN
+// when the head stands (or the take has no neighbouring track samples).
+double travel_cost(const ObjectSource& o, int frame, const Vec3& gaze) {
+    const int reach = std::max(1, int(std::lround(kWalkingWindow * o.spec().fps)));
+    const auto before = o.track(frame - reach), after = o.track(frame + reach);
+    const auto from = before ? before : o.track(frame), to = after ? after : o.track(frame);
+    const int span = (before ? reach : 0) + (after ? reach : 0);
+    if (!from || !to || span == 0) return NaturalTerms::kNone;
+    const Vec3 travel = floor_plane(to->eye - from->eye);
+    const double length = travel.norm();
+    if (length * o.spec().fps / double(span) < kWalkingSpeed) return NaturalTerms::kNone;
+    return 1.0 - gaze.dot(travel) / length;
+}
+
+// The joints (by role) from the root to the end of the limb a strike is made with: an interest
+// part that is one hand or one foot. Empty otherwise.
+std::array<std::string, 2> limb_roles(const PartSpec& part) {
+    if (part.kind != PartSpec::Kind::Parts || part.labels.size() != 1) return {};
+    static const std::array<std::array<std::string, 3>, 4> limbs{{{"right_hand", "RightArm", "RightHand"},
+                                                                  {"left_hand", "LeftArm", "LeftHand"},
+                                                                  {"right_foot", "RightUpLeg", "RightFoot"},
+                                                                  {"left_foot", "LeftUpLeg", "LeftFoot"}}};
+    for (const auto& limb : limbs)
+        if (part.labels[0] == limb[0]) return {limb[1], limb[2]};
+    return {};
+}
+
+// Per frame of `frames`, the limb from its root joint to its end joint in a BVH object's capture
+// frame (scene metres). Empty when the object has no skeleton or the part is not a limb's end.
+std::vector<Limb> limb_segments(const ObjectSource& o, const PartSpec& part, const std::vector<int>& frames) {
+    const auto roles = limb_roles(part);
+    const BvhMotion* motion = o.motion();
+    if (roles[0].empty() || !motion || o.character()) return {};
+    const std::vector<std::string> names = role_names(*motion);
+    const auto root = std::find(names.begin(), names.end(), roles[0]), end = std::find(names.begin(), names.end(), roles[1]);
+    if (root == names.end() || end == names.end()) return {};
+    std::vector<Limb> out;
+    for (const int f : frames) {
+        const auto global = motion->global_transforms(f);
+        out.push_back({to_scene_point(global[std::size_t(root - names.begin())].translation(), o.spec().units),
+                       to_scene_point(global[std::size_t(end - names.begin())].translation(), o.spec().units)});
+    }
+    return out;
+}
+
+// The floor distance (metres) of point p from the line through `limb` on the floor plane, whose
+// floor direction is unit `along`.
+double off_line(const Vec3& p, const Limb& limb, const Vec3& along) {
+    const Vec3 d = floor_plane(p - limb.root);
+    return std::abs(d.x() * along.y() - d.y() * along.x());
+}
+
 }  // namespace
 
 double NaturalTerms::cost() const {
@@ -65,6 +119,8 @@ double NaturalTerms::cost() const {
     if (!std::isnan(depth_m)) c += square(depth_m / kNaturalDepthScale);
     if (!std::isnan(sliding_m)) c += square(sliding_m / kNaturalSlidingScale);
     if (!std::isnan(crowding)) c += crowding;
+    if (!std::isnan(reach)) c += square(reach / gaze_scale);
+    if (!std::isnan(reach_offset_m)) c += square(reach_offset_m / kReachOffsetScale);
     return c;
 }
 
@@ -89,6 +145,10 @@ NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps) 
         const int m = seg->first + n;
         out.a.push_back(edit.frames[0][std::size_t(m)].source);
         out.b.push_back(edit.frames[1][std::size_t(m)].source);
+    }
+    for (int m = seg->first; m < seg->first + seg->length; ++m) {
+        out.key_a.push_back(edit.frames[0][std::size_t(m)].source);
+        out.key_b.push_back(edit.frames[1][std::size_t(m)].source);
     }
     // Every other frame within a second (at 25-30 fps, 12-15 samples a second: a walk is smooth).
     const int reach = std::max(1, int(std::lround(fps)));
@@ -120,7 +180,24 @@ NaturalScorer::NaturalScorer(const KeySegment& key, const KeySweep& sweep, const
     // Bound the depth lookups of a large group (the paper scene's is tens of millions of members).
     const double per_member = kNaturalLookups / std::max(1.0, double(sweep.group.size())) / double(frames_.a.size());
     points_ = std::size_t(std::clamp(per_member, double(kNaturalMinPoints), double(kNaturalPoints)));
+    prepare_reaches(key, a, b);
     prepare_angles(key, a, b, angles);
+}
+
+// A strike between two limbs' ends (0&0 (b): a slap, a punch, a kick) passes an impulse from one
+// limb to the other: each limb drives its end at the other's, so on the floor the two limbs
+// point at each other (Newton's third law; a limb pushes hardest along its own line).
+void NaturalScorer::prepare_reaches(const KeySegment& key, ObjectSource& a, ObjectSource& b) {
+    if (!key.type.lateral_pair() || key.type.variant != 'b' || key.type.near) return;
+    const bool every = !frames_.key_a.empty();
+    std::vector<Limb> la = limb_segments(a, key.interest_a, every ? frames_.key_a : frames_.a);
+    std::vector<Limb> lb = limb_segments(b, key.interest_b, every ? frames_.key_b : frames_.b);
+    if (la.empty() || lb.empty()) return;
+    std::vector<char> both(la.size());
+    for (std::size_t t = 0; t < la.size(); ++t)
+        both[t] = floor_plane(la[t].end - la[t].root).norm() >= kReachMinLength && floor_plane(lb[t].end - lb[t].root).norm() >= kReachMinLength;
+    if (std::find(both.begin(), both.end(), char(1)) == both.end()) return;
+    limbs_a_ = std::move(la), limbs_b_ = std::move(lb), reach_frames_ = std::move(both);
 }
 
 void NaturalScorer::prepare_tracks(ObjectSource& a, ObjectSource& b) {
@@ -134,6 +211,8 @@ void NaturalScorer::prepare_tracks(ObjectSource& a, ObjectSource& b) {
         }
         eyes_a_.push_back(ta->eye), gazes_a_.push_back(floor_plane(ta->gaze).normalized());
         eyes_b_.push_back(tb->eye), gazes_b_.push_back(floor_plane(tb->gaze).normalized());
+        travel_a_.push_back(travel_cost(a, frames_.a[t], gazes_a_.back()));
+        travel_b_.push_back(travel_cost(b, frames_.b[t], gazes_b_.back()));
     }
 }
 
@@ -210,6 +289,7 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
         }
         if (centroids)
             for (const auto& centroid : centroid_b) g.centroids.push_back(turn(*centroid - planar_b));
+        for (const Limb& l : limbs_b_) g.limbs.push_back({turn(l.root - planar_b), turn(l.end - planar_b)});
         if (!sliding) return;
         std::vector<Vec3> rel(n);
         Vec3 mean = Vec3::Zero();
@@ -242,6 +322,9 @@ double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
             a = std::min(a, away(gazes_a_[t], eyes_a_[t], contact));
             b = std::min(b, away(g.gazes[t], eye_b, contact));
         }
+        // A walker may look where it goes (placement turns its gaze and its path alike).
+        if (!std::isnan(travel_a_[t])) a = std::min(a, travel_a_[t]);
+        if (!std::isnan(travel_b_[t])) b = std::min(b, travel_b_[t]);
         sum += a + b;
     }
     return sum / (2.0 * double(g.eyes.size()));
@@ -272,6 +355,22 @@ double NaturalScorer::crowding(const Angle& g, const Vec3& offset) const {
     return sum / double(g.around.size());
 }
 
+void NaturalScorer::reach(const Angle& g, const Vec3& offset, NaturalTerms& out) const {
+    // The contact frame: the key frame (with both limbs' directions) where the limbs' ends are nearest.
+    std::size_t contact = 0;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t t = 0; t < g.limbs.size(); ++t) {
+        const double d = (g.limbs[t].end + offset - limbs_a_[t].end).squaredNorm();
+        if (reach_frames_[t] && d < nearest) nearest = d, contact = t;
+    }
+    const Limb& la = limbs_a_[contact];
+    const Limb lb{g.limbs[contact].root + offset, g.limbs[contact].end + offset};
+    const Vec3 da = floor_plane(la.end - la.root).normalized(), db = floor_plane(lb.end - lb.root).normalized();
+    // 1 - cos of the angle between A's limb and B's reversed; each end's distance from the other's line.
+    out.reach = 1.0 + da.dot(db);
+    out.reach_offset_m = 0.5 * (off_line(lb.end, la, da) + off_line(la.end, lb, db));
+}
+
 NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {
     NaturalTerms out;
     if (angles_.empty()) return out;
@@ -283,6 +382,7 @@ NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {
     if (!g.cells.empty()) out.depth_m = depth(g, pose);
     out.sliding_m = g.sliding;
     if (!g.around.empty()) out.crowding = crowding(g, offset);
+    if (!g.limbs.empty()) reach(g, offset, out);
     return out;
 }
 

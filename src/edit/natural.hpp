@@ -8,12 +8,18 @@
 //             of the interest parts' centroids), whichever is nearer its gaze, on the floor plane
 //             (a placement turns gazes about the vertical only; a capture's head pitch is its
 //             marker set's as much as the eyes'): mean over the key's frames and both heads of
-//             1 - cos(angle), scale 1 - cos 30 deg (the default view cone's half angle);
+//             1 - cos(angle), scale 1 - cos 30 deg (the default view cone's half angle); a
+//             head whose body walks (at least kWalkingSpeed) may look along its path instead;
 //   depth     contact that touches rather than merges: mean over the key's frames of the deepest
 //             point of B's interest part inside A's (metres) beyond what the bodies add to a
 //             person's surface there (capsule hands: mittens), scale 1 cm;
 //   sliding   a held contact (0&0 (a)) moves together: RMS over the key's frames of the interest
 //             parts' relative offset about its mean (metres), scale 2 cm;
+//   reach     a strike (0&0 (b) between two skeletons' hands or feet) drives the limbs at each
+//             other: at the contact frame (the key frame where the limbs' ends are nearest),
+//             1 - cos of the angle on the floor plane between A's limb (shoulder to wrist, hip to
+//             ankle) and B's reversed, scale 1 - cos 30 deg; and each limb's end on the other's
+//             line: mean floor distance (metres) of each end from the other limb's line, scale 4 cm;
 //   crowding  outside the contact people keep out of each other's intimate zone: over the frames
 //             within one second before and after the key (the key's placement carried on), the
 //             mean of (max(0, 0.45 m - root distance on the floor) / 10 cm)^2.
@@ -33,10 +39,15 @@
 
 namespace amhv {
 
+struct Limb {  // a limb from its root joint (shoulder, hip) to its end joint (wrist, ankle), metres
+    Vec3 root, end;
+};
+
 // The frames a key segment's scores look at, from the edit's timeline and roots.
 struct NaturalFrames {
     std::vector<int> a, b;  // source frames of the key's normalised frames (sampled)
     std::vector<Eigen::Vector2d> around_a, around_b;  // roots (capture frames) of the frames around the key
+    std::vector<int> key_a, key_b;  // source frames of every normalised frame of the key (empty: use a, b)
 };
 NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps);
 // The scored frames of a key of `length` normalised frames: at most kNaturalFrames of them, evenly
@@ -66,6 +77,7 @@ private:
     };
     struct Angle {  // B's samples turned by one angle, relative to C^B
         std::vector<Vec3> eyes, gazes, around;
+        std::vector<Limb> limbs;                // B's limb per key frame, turned (empty: no reach term)
         std::vector<Vec3> centroids;            // B's interest part's centroid per frame (empty: none)
         std::vector<std::vector<std::array<int, 3>>> cells;  // B's points' voxels in A's field at C^A, per frame
         std::vector<Eigen::AlignedBox3i> bounds;  // per frame, the box of those cells
@@ -73,10 +85,12 @@ private:
     };
     void prepare_tracks(ObjectSource& a, ObjectSource& b);
     void prepare_depth(const KeySegment& key, ObjectSource& a, ObjectSource& b, Voxeliser& voxeliser);
+    void prepare_reaches(const KeySegment& key, ObjectSource& a, ObjectSource& b);
     void prepare_angles(const KeySegment& key, ObjectSource& a, ObjectSource& b, int angles);
     double gaze(const Angle& g, const Vec3& offset) const;
     double depth(const Angle& g, const PoseIndex& pose) const;
     double crowding(const Angle& g, const Vec3& offset) const;
+    void reach(const Angle& g, const Vec3& offset, NaturalTerms& out) const;
 
     const KeySweep& sweep_;
     NaturalFrames frames_;
@@ -84,6 +98,13 @@ private:
     Vec3 root_a_, root_b_;
     bool tracks_ = false;
     std::vector<Vec3> eyes_a_, gazes_a_, eyes_b_, gazes_b_;  // capture frames
+    // Per scored frame, 1 - cos of the angle between each head's gaze and its travel on the floor
+    // when it walks (kWalkingSpeed), else NaN: a walker may look where it goes (gaze()).
+    std::vector<double> travel_a_, travel_b_;
+    // Per key frame (every one where the frames list them, else the scored ones), each limb, and
+    // whether both have a floor direction there (prepare_reaches); empty: no reach term.
+    std::vector<Limb> limbs_a_, limbs_b_;
+    std::vector<char> reach_frames_;
     std::vector<Vec3> centroids_a_;  // A's interest part's centroid per frame (empty: none)
     double depth_allowance_ = 0;  // metres of depth the bodies' mittens add when hands touch (depth())
     std::vector<Field> fields_;                             // per frame (empty: no depth term)

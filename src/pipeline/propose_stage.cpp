@@ -25,6 +25,10 @@ NaturalFrames segment_frames(const KeySegment& key, const NormalisedPair& frames
         out.a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
         out.b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
     }
+    for (int m = 0; m < frames.length; ++m) {
+        out.key_a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
+        out.key_b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
+    }
     return out;
 }
 
