@@ -136,20 +136,24 @@ std::vector<int> natural_samples(int length) {
     return out;
 }
 
+void sample_key_frames(NaturalFrames& frames) {
+    frames.a.clear(), frames.b.clear();
+    for (const int n : natural_samples(int(frames.key_a.size()))) {
+        frames.a.push_back(frames.key_a[std::size_t(n)]);
+        frames.b.push_back(frames.key_b[std::size_t(n)]);
+    }
+}
+
 NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps) {
     NaturalFrames out;
     const auto seg = std::find_if(edit.timeline.segments.begin(), edit.timeline.segments.end(),
                                   [&](const TimelineSegment& s) { return s.key == key_index; });
     if (seg == edit.timeline.segments.end() || seg->length == 0) return out;
-    for (const int n : natural_samples(seg->length)) {
-        const int m = seg->first + n;
-        out.a.push_back(edit.frames[0][std::size_t(m)].source);
-        out.b.push_back(edit.frames[1][std::size_t(m)].source);
-    }
     for (int m = seg->first; m < seg->first + seg->length; ++m) {
         out.key_a.push_back(edit.frames[0][std::size_t(m)].source);
         out.key_b.push_back(edit.frames[1][std::size_t(m)].source);
     }
+    sample_key_frames(out);
     // Every other frame within a second (at 25-30 fps, 12-15 samples a second: a walk is smooth).
     const int reach = std::max(1, int(std::lround(fps)));
     for (int m = std::max(0, seg->first - reach); m < std::min(edit.timeline.length(), seg->first + seg->length + reach); ++m) {

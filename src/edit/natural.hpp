@@ -53,6 +53,8 @@ NaturalFrames natural_frames(const EditResult& edit, int key_index, double fps);
 // The scored frames of a key of `length` normalised frames: at most kNaturalFrames of them, evenly
 // spaced with both ends (indices into the key's frames).
 std::vector<int> natural_samples(int length);
+// Sets frames.a and frames.b to the scored frames (natural_samples) of frames.key_a and key_b.
+void sample_key_frames(NaturalFrames& frames);
 
 // The weight of a key segment's natural score in the DP's unary cost: weights.natural, or where
 // the key segment states `prefer`, the intent's own weight (the editor's intent leads, and one

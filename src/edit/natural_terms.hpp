@@ -16,14 +16,14 @@ inline constexpr double kNaturalCrowdingScale = 0.10;  // metres
 // A head whose body moves on the floor at least this fast (m/s, the slow end of walking; standing
 // sway stays under 0.2) may look along its path instead of at the other: locomotor gaze.
 inline constexpr double kWalkingSpeed = 0.5;
+// The floor velocity of a head is taken over this time either side of a frame (seconds).
+inline constexpr double kWalkingWindow = 1.0 / 15.0;
 // A strike's limbs (reach): the least horizontal length (metres) of a limb, root to end, for its
 // direction to count; a limb held straight up or down has none.
 inline constexpr double kReachMinLength = 0.05;
 // A strike's ends off each other's limb line (reach_offset_m): half an adult's palm breadth (ANSUR II
 // hand breadth 7.8-8.9 cm), metres: a palm further off its line meets the other with its edge.
 inline constexpr double kReachOffsetScale = 0.04;
-// The floor velocity of a head is taken over this time either side of a frame (seconds).
-inline constexpr double kWalkingWindow = 1.0 / 15.0;
 // At most this many of the key's normalised frames are scored (evenly spaced, ends included).
 inline constexpr int kNaturalFrames = 8;
 // At most this many points of B's interest part per frame; fewer for large groups, so that a

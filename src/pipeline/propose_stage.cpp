@@ -21,14 +21,11 @@ namespace {
 // an edit (no frames around it: no crowding).
 NaturalFrames segment_frames(const KeySegment& key, const NormalisedPair& frames) {
     NaturalFrames out;
-    for (const int m : natural_samples(frames.length)) {
-        out.a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
-        out.b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
-    }
     for (int m = 0; m < frames.length; ++m) {
         out.key_a.push_back(key.a[0] + frames.frames_a[std::size_t(m)]);
         out.key_b.push_back(key.b[0] + frames.frames_b[std::size_t(m)]);
     }
+    sample_key_frames(out);
     return out;
 }
 
