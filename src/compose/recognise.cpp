@@ -12,12 +12,14 @@ namespace {
 
 // Per frame j of the take, how well the example matches it: the largest diagonally blurred
 // similarity over the example's frames i (each diagonal, i - j fixed, is one alignment of the
-// example in the take; the blur averages a pair with its aligned neighbours).
-std::vector<double> votes(const std::vector<Eigen::VectorXd>& example, const std::vector<Eigen::VectorXd>& take, int blur) {
+// example in the take; the blur averages a pair with its aligned neighbours). Distances weigh each
+// feature dimension by `weight`.
+std::vector<double> votes(const FeatureClip& example, const FeatureClip& take, const Eigen::ArrayXd& weight, int blur) {
     const int n = int(example.size()), m = int(take.size());
     Eigen::MatrixXd w(n, m);
     for (int i = 0; i < n; ++i)
-        for (int j = 0; j < m; ++j) w(i, j) = std::exp(-(example[std::size_t(i)] - take[std::size_t(j)]).squaredNorm() / (kSimilarityScale * kSimilarityScale));
+        for (int j = 0; j < m; ++j)
+            w(i, j) = std::exp(-(weight * (example[std::size_t(i)] - take[std::size_t(j)]).array().square()).sum() / (kSimilarityScale * kSimilarityScale));
     std::vector<double> h(std::size_t(m), 0.0);
     for (int c = 0; c < m; ++c) {
         const int shift = c - n / 2;  // j = i + shift
@@ -69,6 +71,31 @@ std::vector<Node> label_frames(const Library& library, int take, const std::vect
 
 }  // namespace
 
+Eigen::ArrayXd feature_weights(const std::vector<FeatureClip>& clips, const std::vector<int>& actions) {
+    const Eigen::Index dims = clips.front().front().size();
+    std::vector<int> kinds(actions.begin(), actions.end());
+    std::sort(kinds.begin(), kinds.end());
+    kinds.erase(std::unique(kinds.begin(), kinds.end()), kinds.end());
+    std::vector<Eigen::ArrayXd> mean(kinds.size(), Eigen::ArrayXd::Zero(dims));
+    std::vector<double> count(kinds.size(), 0.0);
+    Eigen::ArrayXd all = Eigen::ArrayXd::Zero(dims);
+    auto kind_of = [&](std::size_t c) { return std::size_t(std::lower_bound(kinds.begin(), kinds.end(), actions[c]) - kinds.begin()); };
+    for (std::size_t c = 0; c < clips.size(); ++c)
+        for (const Eigen::VectorXd& x : clips[c]) mean[kind_of(c)] += x.array(), count[kind_of(c)] += 1, all += x.array();
+    double total = 0;
+    for (std::size_t k = 0; k < kinds.size(); ++k) mean[k] /= count[k], total += count[k];
+    all /= total;
+    Eigen::ArrayXd between = Eigen::ArrayXd::Zero(dims), within = Eigen::ArrayXd::Zero(dims);
+    for (std::size_t k = 0; k < kinds.size(); ++k) between += count[k] * (mean[k] - all).square();
+    for (std::size_t c = 0; c < clips.size(); ++c)
+        for (const Eigen::VectorXd& x : clips[c]) within += (x.array() - mean[kind_of(c)]).square();
+    // A joint's coordinate enters a feature divided by the square root of the key joints' count (9).
+    const double floor = total * kFeatureNoise * kFeatureNoise / double(KeyJoints{}.all().size());
+    const Eigen::ArrayXd ratio = between / within.max(floor);
+    if (kinds.size() < 2 || ratio.sum() <= 0) return Eigen::ArrayXd::Ones(dims);
+    return ratio * (double(dims) / ratio.sum());
+}
+
 std::vector<std::vector<Eigen::VectorXd>> library_features(const Library& library) {
     const KeyJoints key = key_joints(library.roles, library.file.string());
     std::vector<std::vector<Eigen::VectorXd>> out(library.takes.size());
@@ -85,18 +112,22 @@ Recognition recognise(const Library& library, const std::vector<std::vector<Eige
     for (std::size_t e = 0; e < library.examples.size(); ++e)
         if (library.examples[e].take != leave_out) examples.push_back(int(e));
     const int blur = std::max(1, int(std::lround(kBlurSeconds * library.fps)));
+    std::vector<FeatureClip> clips;
+    std::vector<int> actions;
+    for (int e : examples) {
+        const ActionExample& example = library.examples[std::size_t(e)];
+        const auto& source = features[std::size_t(example.take)];
+        const int from = example.first - library.takes[std::size_t(example.take)].first;
+        clips.emplace_back(source.begin() + from, source.begin() + from + (example.last - example.first + 1));
+        actions.push_back(library.action_index(example.action));
+    }
+    const Eigen::ArrayXd weight = clips.empty() ? Eigen::ArrayXd() : feature_weights(clips, actions);
     Recognition out;
     out.labels.resize(library.takes.size());
     std::vector<std::vector<Node>> per_take(library.takes.size());
     parallel_for(library.takes.size(), [&](std::size_t t_) { const int t = int(t_);
         std::vector<std::vector<double>> h;
-        for (int e : examples) {
-            const ActionExample& example = library.examples[std::size_t(e)];
-            const auto& source = features[std::size_t(example.take)];
-            const int from = example.first - library.takes[std::size_t(example.take)].first;
-            const std::vector<Eigen::VectorXd> clip(source.begin() + from, source.begin() + from + (example.last - example.first + 1));
-            h.push_back(votes(clip, features[std::size_t(t)], blur));
-        }
+        for (const FeatureClip& clip : clips) h.push_back(votes(clip, features[std::size_t(t)], weight, blur));
         per_take[std::size_t(t)] = label_frames(library, t, h, examples, out.labels[std::size_t(t)]);
     });
     for (auto& nodes : per_take) out.nodes.insert(out.nodes.end(), nodes.begin(), nodes.end());

@@ -14,6 +14,11 @@ namespace amhv::compose {
 // Similarity of two features at distance d (metres): exp(-(d / kSimilarityScale)^2), so 0.1 m
 // of root-frame difference (a hand a palm's width elsewhere) reads 0.37.
 inline constexpr double kSimilarityScale = 0.35;
+// Distances weigh each feature dimension by Fisher's criterion over the examples (how far the
+// actions' means lie apart against how far each action's frames spread), so that what tells the
+// given actions apart counts, not what every standing or walking body shares. The spread within an
+// action is floored at kFeatureNoise of joint position (metres), above optical capture's noise.
+inline constexpr double kFeatureNoise = 0.01;
 // The diagonal blur: the mean over +-kBlurSeconds of aligned frames (a pose must match with its
 // neighbours, not alone).
 inline constexpr double kBlurSeconds = 0.1;
@@ -37,6 +42,15 @@ struct Recognition {
     std::vector<Node> nodes;           // per take, in frame order
     std::vector<TakeLabels> labels;    // per take
 };
+
+using FeatureClip = std::vector<Eigen::VectorXd>;
+
+// Fisher's criterion per feature dimension over example clips (`actions[c]` is clip c's action):
+// the spread of the actions' means about their common mean over the spread of each action's frames
+// about its own mean, every frame counted once, divided by its mean over the dimensions so that a
+// weighted distance keeps its units on average. The spread within an action is floored at
+// kFeatureNoise per frame; with one action only, every weight is 1.
+Eigen::ArrayXd feature_weights(const std::vector<FeatureClip>& clips, const std::vector<int>& actions);
 
 // The motion features of every take over the frames it uses.
 std::vector<std::vector<Eigen::VectorXd>> library_features(const Library& library);
