@@ -79,16 +79,22 @@ Eigen::ArrayXd feature_weights(const std::vector<FeatureClip>& clips, const std:
     std::vector<Eigen::ArrayXd> mean(kinds.size(), Eigen::ArrayXd::Zero(dims));
     std::vector<double> count(kinds.size(), 0.0);
     Eigen::ArrayXd all = Eigen::ArrayXd::Zero(dims);
-    auto kind_of = [&](std::size_t c) { return std::size_t(std::lower_bound(kinds.begin(), kinds.end(), actions[c]) - kinds.begin()); };
-    for (std::size_t c = 0; c < clips.size(); ++c)
-        for (const Eigen::VectorXd& x : clips[c]) mean[kind_of(c)] += x.array(), count[kind_of(c)] += 1, all += x.array();
+    std::vector<std::size_t> kind_of(clips.size());  // clip -> index into kinds
+    for (std::size_t c = 0; c < clips.size(); ++c) {
+        kind_of[c] = std::size_t(std::lower_bound(kinds.begin(), kinds.end(), actions[c]) - kinds.begin());
+        for (const Eigen::VectorXd& x : clips[c]) {
+            mean[kind_of[c]] += x.array();
+            count[kind_of[c]] += 1;
+            all += x.array();
+        }
+    }
     double total = 0;
     for (std::size_t k = 0; k < kinds.size(); ++k) mean[k] /= count[k], total += count[k];
     all /= total;
     Eigen::ArrayXd between = Eigen::ArrayXd::Zero(dims), within = Eigen::ArrayXd::Zero(dims);
     for (std::size_t k = 0; k < kinds.size(); ++k) between += count[k] * (mean[k] - all).square();
     for (std::size_t c = 0; c < clips.size(); ++c)
-        for (const Eigen::VectorXd& x : clips[c]) within += (x.array() - mean[kind_of(c)]).square();
+        for (const Eigen::VectorXd& x : clips[c]) within += (x.array() - mean[kind_of[c]]).square();
     // A joint's coordinate enters a feature divided by the square root of the key joints' count (9).
     const double floor = total * kFeatureNoise * kFeatureNoise / double(KeyJoints{}.all().size());
     const Eigen::ArrayXd ratio = between / within.max(floor);
