@@ -36,13 +36,19 @@ void hold_candidates(const HandTrack& a, const ContactEvent& ea, const HandTrack
     for (const Tried* t : minima) {
         Candidate c;
         c.a = t->frames;
-        c.b = {t->frames[0] + t->shift, t->frames[1] + t->shift};
         c.hand_a = ea.hand;
         c.hand_b = eb.hand;
         c.variant = 'a';
         c.coupling_m = t->c.rms_m;
         c.why = fmt::format("A {}; B {}; the hands' relative motion {:.1f} cm RMS when B's frame {} meets A's {}", ea.why, eb.why, 100 * t->c.rms_m,
-                            c.b[0], c.a[0]);
+                            c.a[0] + t->shift, c.a[0]);
+        const auto shake = joined_shake(a, ea.hand, b, eb.hand, t->frames[0], t->frames[1], t->shift);
+        if (shake) {
+            c.a = shake->a;
+            c.why += fmt::format("; they shake over A's frames {}-{} ({} strokes up and down, the slowest at {:.2f} m/s)", c.a[0], c.a[1],
+                                 shake->strokes, shake->slowest_mps);
+        }
+        c.b = {c.a[0] + t->shift, c.a[1] + t->shift};
         out.push_back(c);
     }
 }
@@ -70,6 +76,47 @@ Coupling coupled_motion(const HandTrack& a, Hand hand_a, const HandTrack& b, Han
     }
     const double planar = std::max(0.0, squares - 2.0 * std::hypot(dot, cross));
     return {std::sqrt((planar + heights) / double(n)), std::atan2(cross, dot)};
+}
+
+std::optional<Shake> joined_shake(const HandTrack& a, Hand hand_a, const HandTrack& b, Hand hand_b, int a0, int a1, int shift) {
+    const auto& pa = a.hand[int(hand_a)];
+    const auto& pb = b.hand[int(hand_b)];
+    // A's frames where both tracks have the hand: [lo, hi].
+    const int lo = std::max(a.first, b.first - shift), hi = std::min(a.first + a.frames() - 1, b.first + b.frames() - 1 - shift);
+    auto height = [&](int f) { return (pa[std::size_t(f - a.first)].z() + pb[std::size_t(f + shift - b.first)].z()) / 2; };
+    const int h = std::max(1, int(std::lround(kSpanSeconds / 2 * a.fps)));
+    struct Stroke {
+        int first, last, sign;
+        double peak;
+    };
+    std::vector<Stroke> strokes;
+    std::vector<double> speed;  // per frame from a0: |vertical speed|
+    for (int f = std::max(a0, lo); f <= std::min(a1, hi); ++f) {
+        const int before = std::max(lo, f - h), after = std::min(hi, f + h);
+        const double v = after > before ? (height(after) - height(before)) * a.fps / double(after - before) : 0.0;
+        speed.push_back(std::abs(v));
+        const int sign = v > 0 ? 1 : v < 0 ? -1 : strokes.empty() ? 1 : strokes.back().sign;
+        if (strokes.empty() || sign != strokes.back().sign) strokes.push_back({f, f, sign, 0.0});
+        strokes.back().last = f;
+        strokes.back().peak = std::max(strokes.back().peak, std::abs(v));
+    }
+    std::optional<Shake> best;
+    for (std::size_t i = 0; i < strokes.size();) {
+        std::size_t j = i;
+        while (j < strokes.size() && strokes[j].peak >= kPumpSpeed) ++j;
+        const int count = int(j - i);
+        if (count >= kPumpStrokes && (!best || count > best->strokes)) {
+            // From the first moving frame of the first stroke to the last of the last.
+            const int from = std::max(a0, lo);
+            int first = strokes[i].first, last = strokes[j - 1].last;
+            while (speed[std::size_t(first - from)] < kStillSpeed) ++first;
+            while (speed[std::size_t(last - from)] < kStillSpeed) --last;
+            best = Shake{{first, last}, count, strokes[i].peak};
+            for (std::size_t k = i; k < j; ++k) best->slowest_mps = std::min(best->slowest_mps, strokes[k].peak);
+        }
+        i = std::max(j, i + 1);
+    }
+    return best;
 }
 
 std::vector<Candidate> candidates(const HandTrack& a, const std::vector<ContactEvent>& events_a, const HandTrack& b,

@@ -24,6 +24,13 @@ inline constexpr double kCoarseVoxel = 0.04, kCoarseAngleDeg = 8.0;
 inline constexpr int kShiftsPerPair = 2;
 // The proposals refined at the scene's own sampling, best first.
 inline constexpr int kRefined = 3;
+// A handshake's shake: the joined hands pump up and down together. A stroke is a run of frames
+// where the two hands' mean height moves one way; it pumps when its vertical speed peaks at
+// kPumpSpeed or more (m/s; a 2 cm stroke at 3 Hz peaks at 0.19 m/s, where held hands at rest
+// drift slower), and a shake is at least kPumpStrokes such strokes in a row, up and down, from the
+// first frame where the hands move (kStillSpeed or faster: a quarter of a pump) to the last.
+inline constexpr double kPumpSpeed = 0.2, kStillSpeed = kPumpSpeed / 4;
+inline constexpr int kPumpStrokes = 2;
 // The near-peripheral field (+-45 degrees from the gaze), where people see a partner's hand.
 inline constexpr double kProposalViewDeg = 45.0;
 
@@ -46,9 +53,22 @@ struct Coupling {
 };
 Coupling coupled_motion(const HandTrack& a, Hand hand_a, const HandTrack& b, Hand hand_b, int a0, int a1, int shift);
 
+// The shake of held hands over A's frames a0..a1 (B's frame f + shift meets A's f): the longest run
+// of pumping strokes (the earliest of equal ones) of the two hands' mean height, vertical speeds as
+// the events' (central differences over kSpanSeconds); nothing when no kPumpStrokes strokes pump in
+// a row. Heights are the scene's z, which no placement changes.
+struct Shake {
+    std::array<int, 2> a{};  // A's frames, inclusive
+    int strokes = 0;
+    double slowest_mps = 0;  // the weakest stroke's peak vertical speed
+};
+std::optional<Shake> joined_shake(const HandTrack& a, Hand hand_a, const HandTrack& b, Hand hand_b, int a0, int a1, int shift);
+
 // Every candidate from the two tracks' events: each slap of A with each of B (B shifted so that the
 // impacts meet); each pair of A's and B's holds and hands, at the kShiftsPerPair shifts of least
-// coupled motion over the frames both hold (at least kMinHoldSeconds of them).
+// coupled motion over the frames both hold (at least kMinHoldSeconds of them), trimmed to the held
+// hands' shake when they shake (the handshake proper; a hold without a shake keeps every frame
+// both stand).
 std::vector<Candidate> candidates(const HandTrack& a, const std::vector<ContactEvent>& events_a, const HandTrack& b,
                                   const std::vector<ContactEvent>& events_b);
 
