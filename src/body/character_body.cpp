@@ -194,16 +194,18 @@ std::vector<BodyPart> character_body_parts(const CharacterBody& body, const std:
     return posed_parts(body.parts, std::move(points), body.derived, body.file->source, frame, "a vertex that is not finite");
 }
 
-std::vector<TrackSample> character_track(const CharacterBody& body, const UnitsAndAxes& units) {
+JointFrames character_joints(const CharacterBody& body) {
     JointFrames joints{body.file->source, body.joint_role, body.joint_parent, body.file->frame_count(), 0, {}};
-    joints.globals = [&](int f) {
+    joints.globals = [&body](int f) {
         const std::vector<Eigen::Affine3d> all = body.file->globals(f);
         std::vector<Eigen::Affine3d> out;
         out.reserve(body.joint_node.size());
         for (int node : body.joint_node) out.push_back(all[std::size_t(node)]);
         return out;
     };
-    return joints_track(joints, units);
+    return joints;
 }
+
+std::vector<TrackSample> character_track(const CharacterBody& body, const UnitsAndAxes& units) { return joints_track(character_joints(body), units); }
 
 }  // namespace amhv

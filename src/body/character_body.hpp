@@ -55,5 +55,8 @@ std::vector<BodyPart> character_body_parts(const CharacterBody& body, int frame,
 std::vector<BodyPart> character_body_parts(const CharacterBody& body, const std::vector<Vec3>& skinned, int frame);
 // Per frame, eye and gaze from the head, as for BVH takes.
 std::vector<TrackSample> character_track(const CharacterBody& body, const UnitsAndAxes& units);
+// The rig's joints with their roles and per frame their global transforms (the file's units and
+// axes); it refers to `body`, which must outlive it.
+JointFrames character_joints(const CharacterBody& body);
 
 }  // namespace amhv

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "src/body/character_body.hpp"
 #include "src/core/clock.hpp"
 #include "src/compose/compose_page.hpp"
 #include "src/core/error.hpp"
@@ -85,17 +86,23 @@ std::string part_list(const PartSpec& p) {
     return out;
 }
 
+// The hips and hands of a BVH take or of a character's rig, over the object's frames.
+propose::HandTrack hand_track_of(const ObjectSource& o) {
+    const SceneObject& spec = o.spec();
+    if (o.motion()) return propose::hand_track(*o.motion(), spec.units, spec.frame_first, spec.frame_last, spec.bvh);
+    return propose::hand_track(character_joints(*o.character()), spec.units, character_file(*o.character()).fps, spec.frame_first, spec.frame_last);
+}
+
 }  // namespace
 
 ProposeResult propose_scene(const Scene& scene, Backends& backends) {
     const auto start = std::chrono::steady_clock::now();
     for (const SceneObject* o : {&scene.a, &scene.b})
-        if (o->bvh.empty())
-            fail(scene.file.string(), "object {} is not a BVH take: amhv propose finds contact moments from a skeleton's joints (mesh sequences and "
-                 "characters: not yet)", o->name);
+        if (o->bvh.empty() && o->character.empty())
+            fail(scene.file.string(), "object {} is a mesh sequence: amhv propose finds contact moments from a skeleton's joints (a BVH take's or "
+                 "a character's rig; mesh sequences: not yet)", o->name);
     ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
-    const propose::HandTrack track_a = propose::hand_track(*a.motion(), scene.a.units, scene.a.frame_first, scene.a.frame_last, scene.a.bvh);
-    const propose::HandTrack track_b = propose::hand_track(*b.motion(), scene.b.units, scene.b.frame_first, scene.b.frame_last, scene.b.bvh);
+    const propose::HandTrack track_a = hand_track_of(a), track_b = hand_track_of(b);
     ProposeResult out;
     out.events_a = propose::contact_events(track_a);
     out.events_b = propose::contact_events(track_b);

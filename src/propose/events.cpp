@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "src/body/skeleton_roles.hpp"
+#include "src/core/error.hpp"
 #include "src/compose/features.hpp"
 
 namespace amhv::propose {
@@ -98,6 +99,24 @@ HandTrack hand_track(const BvhMotion& motion, const UnitsAndAxes& units, int fir
         const auto& joints = poses.joints[std::size_t(f)];
         t.hips.push_back(joints[std::size_t(key.hips)]);
         for (int s = 0; s < 2; ++s) t.hand[s].push_back(joints[std::size_t(key.hand[s])]);
+    }
+    return t;
+}
+
+HandTrack hand_track(const JointFrames& joints, const UnitsAndAxes& units, double fps, int first, int last) {
+    auto find = [&](const char* role) {
+        const auto at = std::find(joints.roles.begin(), joints.roles.end(), role);
+        if (at == joints.roles.end()) fail(joints.source, "no joint plays the role {}: amhv propose follows the hips and both hands", role);
+        return std::size_t(at - joints.roles.begin());
+    };
+    const std::size_t hips = find("Hips"), hands[2] = {find("LeftHand"), find("RightHand")};
+    HandTrack t;
+    t.fps = fps;
+    t.first = first;
+    for (int f = first; f <= last; ++f) {
+        const std::vector<Eigen::Affine3d> globals = joints.globals(f);
+        t.hips.push_back(to_scene_point(globals[hips].translation(), units));
+        for (int s = 0; s < 2; ++s) t.hand[s].push_back(to_scene_point(globals[hands[s]].translation(), units));
     }
     return t;
 }

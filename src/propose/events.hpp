@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "src/body/skeleton_body.hpp"
 #include "src/core/geometry.hpp"
 #include "src/io/bvh.hpp"
 #include "src/io/mesh_sequence.hpp"
@@ -50,6 +51,9 @@ struct HandTrack {
     int frames() const { return int(hips.size()); }
 };
 HandTrack hand_track(const BvhMotion& motion, const UnitsAndAxes& units, int first, int last, const std::string& source);
+// The same from any rig whose joints have roles (a character's: its Hips, LeftHand and RightHand),
+// sampled at `fps`.
+HandTrack hand_track(const JointFrames& joints, const UnitsAndAxes& units, double fps, int first, int last);
 
 // Every slap and hold of the track, by hand, in frame order.
 std::vector<ContactEvent> contact_events(const HandTrack& track);
