@@ -45,8 +45,8 @@ struct ProposeResult {
     double seconds = 0;
 };
 
-// Proposals for the two BVH objects of `scene` (its key segments, if any, are not used). Throws
-// amhv::Error naming the scene when an object is not a BVH take.
+// Proposals for the two skeletons of `scene`, BVH takes or characters (its key segments, if any,
+// are not used). Throws amhv::Error naming the scene when an object is a mesh sequence.
 ProposeResult propose_scene(const Scene& scene, Backends& backends);
 
 // `scene` with `proposal` as its one key segment (amhv edit --propose, and propose's best/).
