@@ -5,6 +5,7 @@
 #include <functional>
 #include <fstream>
 #include <numbers>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -214,8 +215,42 @@ TEST(Propose, NoPoseWithinReachIsNoProposal) {
     EXPECT_FALSE(fs::exists(tmp.path() / "out"));
 }
 
-// A mesh sequence has no joints to find moments in (not yet): one line naming the object, no output.
-TEST(Propose, AMeshSequenceIsRefusedInOneLine) {
+// A labelled mesh sequence gives the moments its take gives: the demo's two takes written as mesh
+// sequences with part labels (amhv import-bvh: the capsule bodies, one part name per vertex)
+// propose the handshake the takes propose (A and B 113-147, shift 0), from the torsos and the
+// hands' wrists (where each hand's surface meets its forearm).
+TEST(Propose, ALabelledMeshSequenceProposesWhatItsTakeDoes) {
+    test::TempDir tmp;
+    const fs::path cmu = test::source_dir() / "data" / "cmu";
+    for (const auto& [take, frames, dir] : {std::tuple{"18_01", "1:303", "a"}, std::tuple{"19_01", "21:303", "b"}}) {
+        const auto run = test::run_amhv(fmt::format("import-bvh '{}' --frames {} --out '{}'", (cmu / (std::string(take) + ".bvh")).string(), frames,
+                                                    (tmp.path() / dir).string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+    }
+    const fs::path file = without_segments(tmp.path(), "demo.toml", "meshes.toml", [](std::string& text) {
+        text = text.substr(0, text.find("[objects.A]")) + "[objects.A]\nmeshes = \"a/meshes/frame_%04d.ply\"\nlabels = \"a/labels/frame_%04d.txt\"\n"
+               "unit = \"m\"\nup = \"z\"\nfps = 120\nframes = [1, 303]\n\n[objects.B]\nmeshes = \"b/meshes/frame_%04d.ply\"\n"
+               "labels = \"b/labels/frame_%04d.txt\"\nunit = \"m\"\nup = \"z\"\nfps = 120\nframes = [21, 303]\n"
+               "placement = { x = 4.0, y = -3.0, yaw_deg = 120.0 }\n";
+    });
+    const fs::path out = tmp.path() / "out";
+    const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}' --no-best", file.string(), out.string()));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
+    ASSERT_FALSE(proposals.empty());
+    const auto& p = proposals[0];
+    EXPECT_EQ(p["type"], "0&0a");
+    EXPECT_EQ(p["parts"]["A"], "right_hand");
+    EXPECT_EQ(p["parts"]["B"], "right_hand");
+    EXPECT_LE(std::abs(p["shift_frames"].get<int>()), 2) << p.dump();
+    for (const char* side : {"a", "b"}) {
+        EXPECT_LE(std::abs(p[side][0].get<int>() - 113), 5) << p.dump();
+        EXPECT_LE(std::abs(p[side][1].get<int>() - 147), 5) << p.dump();
+    }
+}
+
+// A mesh sequence without part labels has no hands to follow: one line naming the object, no output.
+TEST(Propose, AnUnlabelledMeshSequenceIsRefusedInOneLine) {
     test::TempDir tmp;
     fs::create_directories(tmp.path() / "m");
     for (int f = 0; f < 3; ++f)
@@ -227,7 +262,7 @@ TEST(Propose, AMeshSequenceIsRefusedInOneLine) {
     const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'", file.string(), (tmp.path() / "out").string()));
     EXPECT_NE(run.exit_code, 0);
     EXPECT_EQ(test::one_line_error(run), 1) << run.output;
-    EXPECT_NE(run.output.find("object B is a mesh sequence"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("object B is a mesh sequence without part labels"), std::string::npos) << run.output;
     EXPECT_FALSE(fs::exists(tmp.path() / "out"));
 }
 

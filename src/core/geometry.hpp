@@ -2,6 +2,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,10 @@ struct TriangleMesh {
     bool is_closed() const;
     void append(const TriangleMesh& other);
 };
+
+// The area-weighted centroid of a mesh's triangles (the vertex mean when it has no area; none when
+// it has no vertex).
+std::optional<Vec3> surface_centroid(const TriangleMesh& mesh);
 
 struct MeshFrame {
     TriangleMesh mesh;

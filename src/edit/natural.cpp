@@ -31,22 +31,6 @@ double surface_excess(const ObjectSource& o, const PartSpec& part) {
     return kMittenRadius - 0.5 * kHandThickness;
 }
 
-// The area-weighted centroid of a mesh's triangles (the vertex mean when it has no area).
-std::optional<Vec3> surface_centroid(const TriangleMesh& mesh) {
-    Vec3 sum = Vec3::Zero();
-    double area = 0;
-    for (const auto& t : mesh.triangles) {
-        const Vec3 &p = mesh.vertices[t[0]], &q = mesh.vertices[t[1]], &r = mesh.vertices[t[2]];
-        const double a = 0.5 * (q - p).cross(r - p).norm();
-        sum += a * (p + q + r) / 3.0;
-        area += a;
-    }
-    if (area > 0) return sum / area;
-    if (mesh.vertices.empty()) return std::nullopt;
-    for (const Vec3& v : mesh.vertices) sum += v;
-    return sum / double(mesh.vertices.size());
-}
-
 // At most `count` of the mesh's vertices, evenly strided (deterministic).
 std::vector<Vec3> sample_points(const TriangleMesh& mesh, std::size_t count) {
     std::vector<Vec3> out;

@@ -86,21 +86,80 @@ std::string part_list(const PartSpec& p) {
     return out;
 }
 
-// The hips and hands of a BVH take or of a character's rig, over the object's frames.
-propose::HandTrack hand_track_of(const ObjectSource& o) {
+// Where a labelled hand meets its forearm, standing in for the wrist joint a skeleton's hand cues
+// follow: the area-weighted centroid of the hand's triangles, each weighted by exp(-(e / kWristBand)^2),
+// e its centroid's distance to the forearm's centroid beyond the nearest triangle's (the hand's cap
+// at the wrist; the weights change continuously as the hand turns, so the point does not jump from
+// vertex to vertex). Without a forearm, the hand's centroid.
+constexpr double kWristBand = 0.01;  // metres
+std::optional<Vec3> wrist(const TriangleMesh& hand, const TriangleMesh* forearm) {
+    const std::optional<Vec3> towards = forearm ? surface_centroid(*forearm) : std::nullopt;
+    if (!towards || hand.triangles.empty()) return surface_centroid(hand);
+    std::vector<Vec3> centres;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& t : hand.triangles) {
+        centres.push_back((hand.vertices[t[0]] + hand.vertices[t[1]] + hand.vertices[t[2]]) / 3.0);
+        nearest = std::min(nearest, (centres.back() - *towards).norm());
+    }
+    Vec3 sum = Vec3::Zero();
+    double total = 0;
+    for (std::size_t i = 0; i < centres.size(); ++i) {
+        const auto& t = hand.triangles[i];
+        const Vec3 &p = hand.vertices[t[0]], &q = hand.vertices[t[1]], &r = hand.vertices[t[2]];
+        const double e = ((centres[i] - *towards).norm() - nearest) / kWristBand, w = 0.5 * (q - p).cross(r - p).norm() * std::exp(-e * e);
+        sum += w * centres[i];
+        total += w;
+    }
+    return total > 0 ? std::optional<Vec3>(sum / total) : surface_centroid(hand);
+}
+
+// The hips and hands of a labelled mesh sequence, per frame: the area-weighted surface centroid
+// of its torso (standing in for the hips: both carry the body over the floor) and each hand's
+// wrist (docs/method.md section 13).
+propose::HandTrack part_track(ObjectSource& o) {
+    const SceneObject& spec = o.spec();
+    const std::string& file = spec.labels.empty() ? spec.meshes : spec.labels;
+    if (spec.labels.empty())
+        fail(file, "object {} is a mesh sequence without part labels: amhv propose follows its torso and hands, so give it `labels` "
+             "(one part name per vertex, docs/scenes.md)", spec.name);
+    propose::HandTrack t;
+    t.fps = spec.fps;
+    t.first = spec.frame_first;
+    for (int f = spec.frame_first; f <= spec.frame_last; ++f) {
+        const std::vector<BodyPart>& parts = o.frame_parts(f);
+        auto mesh = [&](const std::string& name) -> const TriangleMesh* {
+            const auto part = std::find_if(parts.begin(), parts.end(), [&](const BodyPart& p) { return p.name == name; });
+            return part == parts.end() || part->mesh.vertices.empty() ? nullptr : &part->mesh;
+        };
+        auto need = [&](const std::string& name) -> const TriangleMesh& {
+            const TriangleMesh* m = mesh(name);
+            if (!m) fail(file, "object {}: frame {} has no vertex labelled {} (amhv propose follows a mesh sequence's torso and hands)", spec.name, f, name);
+            return *m;
+        };
+        t.hips.push_back(*surface_centroid(need("torso")));
+        for (const propose::Hand hand : {propose::Hand::Left, propose::Hand::Right}) {
+            const std::string side = hand == propose::Hand::Left ? "left_" : "right_";
+            t.hand[int(hand)].push_back(*wrist(need(side + "hand"), mesh(side + "forearm")));
+        }
+    }
+    return t;
+}
+
+// The hips and hands of a BVH take, of a character's rig or of a labelled mesh sequence, over the
+// object's frames.
+propose::HandTrack hand_track_of(ObjectSource& o) {
     const SceneObject& spec = o.spec();
     if (o.motion()) return propose::hand_track(*o.motion(), spec.units, spec.frame_first, spec.frame_last, spec.bvh);
-    return propose::hand_track(character_joints(*o.character()), spec.units, character_file(*o.character()).fps, spec.frame_first, spec.frame_last);
+    if (o.character())
+        return propose::hand_track(character_joints(*o.character()), spec.units, character_file(*o.character()).fps, spec.frame_first,
+                                   spec.frame_last);
+    return part_track(o);
 }
 
 }  // namespace
 
 ProposeResult propose_scene(const Scene& scene, Backends& backends) {
     const auto start = std::chrono::steady_clock::now();
-    for (const SceneObject* o : {&scene.a, &scene.b})
-        if (o->bvh.empty() && o->character.empty())
-            fail(scene.file.string(), "object {} is a mesh sequence: amhv propose finds contact moments from a skeleton's joints (a BVH take's or "
-                 "a character's rig; mesh sequences: not yet)", o->name);
     ObjectSource a(scene.a, backends.skinner), b(scene.b, backends.skinner);
     const propose::HandTrack track_a = hand_track_of(a), track_b = hand_track_of(b);
     ProposeResult out;

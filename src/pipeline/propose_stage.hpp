@@ -45,8 +45,9 @@ struct ProposeResult {
     double seconds = 0;
 };
 
-// Proposals for the two skeletons of `scene`, BVH takes or characters (its key segments, if any,
-// are not used). Throws amhv::Error naming the scene when an object is a mesh sequence.
+// Proposals for the two people of `scene`, BVH takes, characters or mesh sequences with part
+// labels (its key segments, if any, are not used). Throws amhv::Error naming the file when an
+// object is a mesh sequence without part labels (its torso and hands give the moments).
 ProposeResult propose_scene(const Scene& scene, Backends& backends);
 
 // `scene` with `proposal` as its one key segment (amhv edit --propose, and propose's best/).

@@ -1,6 +1,6 @@
 #pragma once
 // Moments where a take's hand can meet another person's (docs/method.md section 13), found from
-// the skeleton's joints alone:
+// its hips and hands alone (a skeleton's joints, or a labelled mesh sequence's torso and wrists):
 //   a slap (0&0 (b): the hand arrives fast and stops at once: an impact),
 //   a hold (0&0 (a): the person stands, a hand free to shake or take another's).
 // Each is a window of the take's frames with the hand, the kind and how strong the cue is.
