@@ -88,8 +88,36 @@ TEST(Compose, FeatureWeightsFavourWhatTellsTheActionsApart) {
     EXPECT_DOUBLE_EQ(same[1], 1.0);
 }
 
+// The mirror of a take's features is the features of the take seen in a mirror: a shipped take
+// reflected across the vertical plane y = 0 (left and right joints swapped, its heading negated)
+// gives, frame by frame, the mirrored features of the take as captured.
+TEST(Compose, AMirroredTakeHasTheMirroredFeatures) {
+    const Library library = read_library(library_file("handshake.toml"));
+    const KeyJoints key = key_joints(library.roles, "handshake");
+    const PoseTrack track = pose_track(library.takes[0].motion, library.units, key);
+    PoseTrack mirror = track;
+    std::vector<std::pair<int, int>> pairs{{key.hand[0], key.hand[1]}, {key.elbow[0], key.elbow[1]}, {key.knee[0], key.knee[1]},
+                                           {key.foot[0], key.foot[1]}, {key.hip[0], key.hip[1]}};
+    for (std::size_t f = 0; f < track.joints.size(); ++f) {
+        for (Vec3& p : mirror.joints[f]) p.y() = -p.y();
+        for (const auto& [l, r] : pairs) std::swap(mirror.joints[f][std::size_t(l)], mirror.joints[f][std::size_t(r)]);
+        mirror.heading[f] = -track.heading[f];
+    }
+    const int first = library.takes[0].first, last = library.takes[0].last;
+    const auto seen = motion_features(track, key, library.fps, first, last), reflected = motion_features(mirror, key, library.fps, first, last);
+    ASSERT_EQ(seen.size(), reflected.size());
+    double worst = 0;
+    for (std::size_t f = 0; f < seen.size(); ++f) {
+        worst = std::max(worst, (mirrored_feature(seen[f]) - reflected[f]).cwiseAbs().maxCoeff());
+        EXPECT_EQ(mirrored_feature(mirrored_feature(seen[f])), seen[f]);
+    }
+    EXPECT_LT(worst, 1e-9);
+    // And it is not the identity: the take's features are not symmetric.
+    EXPECT_GT((mirrored_feature(seen[100]) - seen[100]).norm(), 0.05);
+}
+
 // Recognition, leave one take out, against the hand labels of data/compose/README.md. The issue
-// asks for 80%; today's figures (docs/benchmarks.md, B6) are 68% of all held-out frames and 53-80%
+// asks for 80%; today's figures (docs/benchmarks.md, B6) are 78% of all held-out frames and 67-88%
 // per take: this keeps them.
 TEST(Compose, RecognitionLeavingOneTakeOutAgreesWithTheHandLabels) {
     struct Span {
@@ -111,12 +139,12 @@ TEST(Compose, RecognitionLeavingOneTakeOutAgreesWithTheHandLabels) {
                     agree += r.labels[t].action[std::size_t(f - library.takes[t].first)] == library.action_index(span.action);
             const double share = double(agree) / frames;
             std::cout << name << " leaving out " << library.takes[t].name << ": " << agree << " / " << frames << " frames agree\n";
-            EXPECT_GE(share, 0.5) << name << " " << library.takes[t].name;
+            EXPECT_GE(share, 0.65) << name << " " << library.takes[t].name;
             all_agree += agree, all_frames += frames;
         }
     }
     std::cout << "all held-out frames: " << all_agree << " / " << all_frames << " agree\n";
-    EXPECT_GE(double(all_agree) / all_frames, 0.65);
+    EXPECT_GE(double(all_agree) / all_frames, 0.75);
 }
 
 // Splicing two takes: the composed take plays without a visible jump (the largest joint step at a

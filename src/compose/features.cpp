@@ -120,4 +120,19 @@ std::vector<Eigen::VectorXd> motion_features(const PoseTrack& track, const KeyJo
     return features;
 }
 
+Eigen::VectorXd mirrored_feature(const Eigen::VectorXd& feature) {
+    // all() is the head, then left and right of each pair: joint j's mirror is j + 1 (odd j) or
+    // j - 1 (even j > 0).
+    const Eigen::Index joints = (feature.size() - 1) / 6;
+    Eigen::VectorXd out = feature;
+    for (Eigen::Index block = 0; block < 2; ++block)  // positions, then velocities
+        for (Eigen::Index j = 0; j < joints; ++j) {
+            const Eigen::Index from = j == 0 ? 0 : j % 2 == 1 ? j + 1 : j - 1, at = 3 * (block * joints + j);
+            out.segment<3>(at) = feature.segment<3>(3 * (block * joints + from));
+            out[at + 1] = -out[at + 1];
+        }
+    out[feature.size() - 1] = -feature[feature.size() - 1];
+    return out;
+}
+
 }  // namespace amhv::compose

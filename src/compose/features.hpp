@@ -51,4 +51,9 @@ inline constexpr double kLegLength = 0.85;
 // squared distance between two features is the mean over the joints plus the root's terms.
 std::vector<Eigen::VectorXd> motion_features(const PoseTrack& track, const KeyJoints& key, double fps, int first, int last);
 
+// The same feature seen in a mirror across the body's sagittal plane: left and right joints
+// swapped, the sideways components (the root frame's y) and the turning negated. An action done
+// to the left is the action done to the right (docs/method.md section 12).
+Eigen::VectorXd mirrored_feature(const Eigen::VectorXd& feature);
+
 }  // namespace amhv::compose

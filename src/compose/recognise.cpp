@@ -40,17 +40,17 @@ std::vector<double> votes(const FeatureClip& example, const FeatureClip& take, c
 
 // Per frame, the action whose examples match it best, when the match reaches kMinVote; then the
 // nodes: runs of one action at least kMinExampleSeconds long (shorter runs stay unknown).
-std::vector<Node> label_frames(const Library& library, int take, const std::vector<std::vector<double>>& h, const std::vector<int>& examples,
+std::vector<Node> label_frames(const Library& library, int take, const std::vector<std::vector<double>>& h, const std::vector<int>& actions,
                                TakeLabels& labels) {
     const LibraryTake& t = library.takes[std::size_t(take)];
     const std::size_t count = std::size_t(t.frames());
     labels.action.assign(count, -1);
     labels.confidence.assign(count, 0.0);
     for (std::size_t f = 0; f < count; ++f)
-        for (std::size_t e = 0; e < examples.size(); ++e)
+        for (std::size_t e = 0; e < actions.size(); ++e)
             if (h[e][f] >= kMinVote && h[e][f] > labels.confidence[f]) {
                 labels.confidence[f] = h[e][f];
-                labels.action[f] = library.action_index(library.examples[std::size_t(examples[e])].action);
+                labels.action[f] = actions[e];
             }
     std::vector<Node> nodes;
     const std::size_t min_length = std::size_t(std::ceil(kMinExampleSeconds * library.fps));
@@ -127,6 +127,13 @@ Recognition recognise(const Library& library, const std::vector<std::vector<Eige
         clips.emplace_back(source.begin() + from, source.begin() + from + (example.last - example.first + 1));
         actions.push_back(library.action_index(example.action));
     }
+    // Each example also in a mirror: an action done to the left is the action done to the right.
+    for (std::size_t c = 0, given = clips.size(); c < given; ++c) {
+        FeatureClip mirror;
+        for (const Eigen::VectorXd& x : clips[c]) mirror.push_back(mirrored_feature(x));
+        clips.push_back(std::move(mirror));
+        actions.push_back(actions[c]);
+    }
     const Eigen::ArrayXd weight = clips.empty() ? Eigen::ArrayXd() : feature_weights(clips, actions);
     Recognition out;
     out.labels.resize(library.takes.size());
@@ -134,7 +141,7 @@ Recognition recognise(const Library& library, const std::vector<std::vector<Eige
     parallel_for(library.takes.size(), [&](std::size_t t_) { const int t = int(t_);
         std::vector<std::vector<double>> h;
         for (const FeatureClip& clip : clips) h.push_back(votes(clip, features[std::size_t(t)], weight, blur));
-        per_take[std::size_t(t)] = label_frames(library, t, h, examples, out.labels[std::size_t(t)]);
+        per_take[std::size_t(t)] = label_frames(library, t, h, actions, out.labels[std::size_t(t)]);
     });
     for (auto& nodes : per_take) out.nodes.insert(out.nodes.end(), nodes.begin(), nodes.end());
     return out;

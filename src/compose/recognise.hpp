@@ -55,7 +55,9 @@ Eigen::ArrayXd feature_weights(const std::vector<FeatureClip>& clips, const std:
 // The motion features of every take over the frames it uses.
 std::vector<std::vector<Eigen::VectorXd>> library_features(const Library& library);
 
-// Recognition over every take, with every example except those of take `leave_out` (-1: none).
+// Recognition over every take, with every example except those of take `leave_out` (-1: none),
+// each also in a mirror (mirrored_feature: an action done to the left is the action done to the
+// right).
 Recognition recognise(const Library& library, const std::vector<std::vector<Eigen::VectorXd>>& features, int leave_out = -1);
 
 }  // namespace amhv::compose
