@@ -706,6 +706,15 @@ TEST(Edit, AKeyPoseNoTransitionCanLeaveIsChosenAgain) {
     const double turned = std::abs(result.at("segments")[0].at("chosen").at("thetaB_deg").get<double>());
     EXPECT_GT(turned, 20.0);  // B no longer faces A
     for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
+    // The choice that stands reports every output frame once, in order, and every transition once,
+    // whether its segments were checked afresh or kept from an earlier choice.
+    std::istringstream rows(read_text(root / "vulkan/frames.csv"));
+    std::string row;
+    std::getline(rows, row);
+    int frame = 0;
+    for (; std::getline(rows, row); ++frame) EXPECT_EQ(row.substr(0, row.find(',')), std::to_string(frame));
+    EXPECT_EQ(frame, result.at("output").at("frames").get<int>());
+    EXPECT_EQ(result.at("transitions").size(), paper.at("transitions").size());
 
     EXPECT_EQ(test::overlapping_transitional_frames(pole.fixture->scene, root / "vulkan/transforms.json", 0.03), std::vector<int>{});
 }

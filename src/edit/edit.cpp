@@ -453,22 +453,80 @@ std::string stuck_message(const Scene& scene, const TransitionCheck& t, const st
                        scene.file.string(), t.timeline_segment / 2, frame_ranges(segment_frames(seg)), frame_ranges(bad), t.max_overlap, t.rounds);
 }
 
+// What a segment's check depends on and what it gave, kept from one choice of the key poses to
+// the next (docs/method.md section 8a): a segment whose frames, and the frames either side of it
+// (a transition's ends), are placed as before checks and separates as before, so the next choice
+// reuses its outcome instead of checking it again. The check is a function of those frames alone
+// (the bodies and the voxel are fixed), so the outcome is the same bytes either way.
+struct CheckedSegment {
+    std::array<std::vector<ObjectFrameEdit>, 2> placed;  // r.frames over [first - 1, last + 1], as placed
+    std::array<std::vector<ObjectFrameEdit>, 2> result;  // the same frames after separation
+    std::vector<PathReport> paths;                       // the segment's paths after separation
+    std::optional<TransitionCheck> transition;
+    std::vector<FrameCheck> checks;
+};
+using CheckCache = std::map<int, CheckedSegment>;
+
+bool same_frame(const ObjectFrameEdit& x, const ObjectFrameEdit& y) {
+    return x.source == y.source && x.root == y.root && x.facing == y.facing && x.original_root == y.original_root &&
+           x.original_facing == y.original_facing && x.edited_root == y.edited_root && x.edited_facing == y.edited_facing && x.yaw == y.yaw &&
+           x.translation == y.translation && x.lift == y.lift;
+}
+
+// r.frames over segment `seg` and the frame either side of it (where there is one).
+std::array<std::vector<ObjectFrameEdit>, 2> frames_around(const TimelineSegment& seg, const EditResult& r) {
+    const int first = std::max(0, seg.first - 1), last = std::min(r.timeline.length() - 1, seg.first + seg.length);
+    std::array<std::vector<ObjectFrameEdit>, 2> out;
+    for (int o = 0; o < 2; ++o) out[std::size_t(o)].assign(r.frames[std::size_t(o)].begin() + first, r.frames[std::size_t(o)].begin() + last + 1);
+    return out;
+}
+
+bool same_frames(const std::array<std::vector<ObjectFrameEdit>, 2>& x, const std::array<std::vector<ObjectFrameEdit>, 2>& y) {
+    for (int o = 0; o < 2; ++o)
+        if (!std::equal(x[std::size_t(o)].begin(), x[std::size_t(o)].end(), y[std::size_t(o)].begin(), y[std::size_t(o)].end(), same_frame)) return false;
+    return true;
+}
+
+// Segment `s` as `cached` left it: its frames, paths, transition check and frame checks.
+void reuse(const CheckedSegment& cached, int s, EditResult& r) {
+    const TimelineSegment& seg = r.timeline.segments[std::size_t(s)];
+    const int first = std::max(0, seg.first - 1);
+    for (int o = 0; o < 2; ++o) std::copy(cached.result[std::size_t(o)].begin(), cached.result[std::size_t(o)].end(), r.frames[std::size_t(o)].begin() + first);
+    std::size_t next = 0;
+    for (PathReport& p : r.paths)
+        if (p.timeline_segment == s) p = cached.paths[next++];
+    if (cached.transition) r.transition_checks.push_back(*cached.transition);
+}
+
 // Every output frame checked (frame_checks); every transitional segment separated where it
 // overlaps. Stops at the first transition that stays overlapping (unless overlap is allowed).
-std::optional<StuckTransition> check_and_separate(const SeparationContext& c, const EditOptions& options, EditResult& r) {
+// Segments placed as in an earlier choice reuse that choice's outcome (`cache`).
+std::optional<StuckTransition> check_and_separate(const SeparationContext& c, const EditOptions& options, EditResult& r, CheckCache& cache) {
     std::vector<FrameCheck> all;
     for (std::size_t s = 0; s < r.timeline.segments.size(); ++s) {
         const TimelineSegment& seg = r.timeline.segments[s];
         if (seg.length == 0) continue;
-        std::vector<FrameCheck> checks;
-        if (seg.key == 0) {
-            r.transition_checks.push_back(separate_transition(c, int(s), options, r, checks));
-            if (r.transition_checks.back().overlapping > 0 && !options.allow_transition_overlap)
-                return StuckTransition{int(s), stuck_message(c.scene, r.transition_checks.back(), checks, seg)};
-        } else {
-            checks = check_frames(r, segment_frames(seg), *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
+        std::array<std::vector<ObjectFrameEdit>, 2> placed = frames_around(seg, r);
+        if (const auto hit = cache.find(int(s)); hit != cache.end() && same_frames(hit->second.placed, placed)) {
+            reuse(hit->second, int(s), r);
+            all.insert(all.end(), hit->second.checks.begin(), hit->second.checks.end());
+            continue;
         }
-        all.insert(all.end(), checks.begin(), checks.end());
+        CheckedSegment entry;
+        entry.placed = std::move(placed);
+        if (seg.key == 0) {
+            r.transition_checks.push_back(separate_transition(c, int(s), options, r, entry.checks));
+            if (r.transition_checks.back().overlapping > 0 && !options.allow_transition_overlap)
+                return StuckTransition{int(s), stuck_message(c.scene, r.transition_checks.back(), entry.checks, seg)};
+            entry.transition = r.transition_checks.back();
+            for (const PathReport& p : r.paths)
+                if (p.timeline_segment == int(s)) entry.paths.push_back(p);
+        } else {
+            entry.checks = check_frames(r, segment_frames(seg), *c.sources[0], *c.sources[1], c.scene.sampling.voxel, c.voxeliser);
+        }
+        entry.result = frames_around(seg, r);
+        all.insert(all.end(), entry.checks.begin(), entry.checks.end());
+        cache[int(s)] = std::move(entry);
     }
     std::sort(all.begin(), all.end(), [](const FrameCheck& x, const FrameCheck& y) { return x.frame < y.frame; });
     r.frame_checks = std::move(all);
@@ -501,7 +559,7 @@ PathWeights path_weights(const Scene& scene) {
 // separating where transitions overlap (docs/method.md sections 7, 8 and 8a).
 std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vector<KeySweep>& sweeps, const std::vector<ChainSegment>& chain,
                                               const std::vector<bool>& captured, const std::vector<int>& captured_k, const ChainWeights& weights,
-                                              const SeparationContext& c, const EditOptions& options, EditResult& r) {
+                                              const SeparationContext& c, const EditOptions& options, EditResult& r, CheckCache& cache) {
     r.keys.clear();
     r.paths.clear();
     r.transition_checks.clear();
@@ -516,7 +574,7 @@ std::optional<StuckTransition> realise_choice(const Scene& scene, const std::vec
     }
     r.path_seconds += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-    std::optional<StuckTransition> stuck = check_and_separate(c, options, r);
+    std::optional<StuckTransition> stuck = check_and_separate(c, options, r, cache);
     r.check_seconds += seconds_since(t0);
     return stuck;
 }
@@ -619,6 +677,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
     const SeparationContext context{scene, {&a, &b}, voxeliser, path_weights(scene)};
     std::string first_stuck;
     ExactKeys exact;
+    CheckCache checked;
     for (r.choices_tried = 1;; ++r.choices_tried) {
         t0 = std::chrono::steady_clock::now();
         std::optional<ChainChoice> choice = alternatives.next();
@@ -629,7 +688,7 @@ EditResult edit_scene(const Scene& scene, const std::vector<KeySweep>& sweeps, O
                                     first_stuck, r.choices_tried - 1));
         r.choice = std::move(*choice);
         r.touch_ups = touch_up_choice(scene, sweeps, a, b, voxeliser, captured, exact, r.choice);
-        const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r);
+        const std::optional<StuckTransition> stuck = realise_choice(scene, sweeps, chain, captured, captured_k, weights, context, options, r, checked);
         if (!stuck) {
             natural.report(scene, sweeps, r);
             return r;
