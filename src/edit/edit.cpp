@@ -467,12 +467,6 @@ struct CheckedSegment {
 };
 using CheckCache = std::map<int, CheckedSegment>;
 
-bool same_frame(const ObjectFrameEdit& x, const ObjectFrameEdit& y) {
-    return x.source == y.source && x.root == y.root && x.facing == y.facing && x.original_root == y.original_root &&
-           x.original_facing == y.original_facing && x.edited_root == y.edited_root && x.edited_facing == y.edited_facing && x.yaw == y.yaw &&
-           x.translation == y.translation && x.lift == y.lift;
-}
-
 // r.frames over segment `seg` and the frame either side of it (where there is one).
 std::array<std::vector<ObjectFrameEdit>, 2> frames_around(const TimelineSegment& seg, const EditResult& r) {
     const int first = std::max(0, seg.first - 1), last = std::min(r.timeline.length() - 1, seg.first + seg.length);
@@ -481,13 +475,8 @@ std::array<std::vector<ObjectFrameEdit>, 2> frames_around(const TimelineSegment&
     return out;
 }
 
-bool same_frames(const std::array<std::vector<ObjectFrameEdit>, 2>& x, const std::array<std::vector<ObjectFrameEdit>, 2>& y) {
-    for (int o = 0; o < 2; ++o)
-        if (!std::equal(x[std::size_t(o)].begin(), x[std::size_t(o)].end(), y[std::size_t(o)].begin(), y[std::size_t(o)].end(), same_frame)) return false;
-    return true;
-}
-
-// Segment `s` as `cached` left it: its frames, paths, transition check and frame checks.
+// Segment `s` as `cached` left it: its frames, paths and transition check (the caller adds its
+// frame checks).
 void reuse(const CheckedSegment& cached, int s, EditResult& r) {
     const TimelineSegment& seg = r.timeline.segments[std::size_t(s)];
     const int first = std::max(0, seg.first - 1);
@@ -507,7 +496,7 @@ std::optional<StuckTransition> check_and_separate(const SeparationContext& c, co
         const TimelineSegment& seg = r.timeline.segments[s];
         if (seg.length == 0) continue;
         std::array<std::vector<ObjectFrameEdit>, 2> placed = frames_around(seg, r);
-        if (const auto hit = cache.find(int(s)); hit != cache.end() && same_frames(hit->second.placed, placed)) {
+        if (const auto hit = cache.find(int(s)); hit != cache.end() && hit->second.placed == placed) {
             reuse(hit->second, int(s), r);
             all.insert(all.end(), hit->second.checks.begin(), hit->second.checks.end());
             continue;

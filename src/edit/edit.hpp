@@ -43,6 +43,8 @@ struct ObjectFrameEdit {
     // Vertical shift into the scene: B's chosen z (z_range) in a key segment, blended linearly
     // across a transition between the key segments around it; 0 for A.
     double lift = 0;
+    // Every field equal (the edit's check reuses a segment placed as before: src/edit/edit.cpp).
+    bool operator==(const ObjectFrameEdit&) const = default;
 };
 
 struct KeyEdit {
