@@ -24,6 +24,25 @@ Vec3 turned(const Vec3& p, double degrees) {
     return {c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z()};
 }
 
+// The wrist of a labelled mesh is a weighted surface centroid: each triangle counts by its area
+// times its weight, so a weight that keeps one triangle gives that triangle's centroid, and
+// weights that are all 0 give none.
+TEST(Propose, AWeightedSurfaceCentroidCountsEachTriangleByAreaAndWeight) {
+    TriangleMesh mesh;
+    mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {5, 0, 0}, {7, 0, 0}, {5, 2, 0}};
+    mesh.triangles = {{0, 1, 2}, {3, 4, 5}};  // areas 0.5 and 2
+    const Vec3 near{1.0 / 3, 1.0 / 3, 0}, far{17.0 / 3, 2.0 / 3, 0};
+    const auto only_near = weighted_surface_centroid(mesh, [](const Vec3& c) { return c.x() < 2 ? 1.0 : 0.0; });
+    ASSERT_TRUE(only_near);
+    EXPECT_LT((*only_near - near).norm(), 1e-12);
+    // Equal weights give the plain area-weighted centroid: (0.5 near + 2 far) / 2.5.
+    const auto even = weighted_surface_centroid(mesh, [](const Vec3&) { return 3.0; });
+    ASSERT_TRUE(even);
+    EXPECT_LT((*even - *surface_centroid(mesh)).norm(), 1e-12);
+    EXPECT_LT((*even - (0.5 * near + 2 * far) / 2.5).norm(), 1e-12);
+    EXPECT_FALSE(weighted_surface_centroid(mesh, [](const Vec3&) { return 0.0; }));
+}
+
 // A track at `fps` whose hips move at `walk(f)` m/s along x and whose hands sit at `hand(f)`.
 HandTrack track(double fps, int frames, const std::function<double(int)>& walk, const std::function<Vec3(int)>& hand) {
     HandTrack t;

@@ -76,4 +76,18 @@ std::optional<Vec3> surface_centroid(const TriangleMesh& mesh) {
     return sum / double(mesh.vertices.size());
 }
 
+std::optional<Vec3> weighted_surface_centroid(const TriangleMesh& mesh, const std::function<double(const Vec3&)>& weight) {
+    Vec3 sum = Vec3::Zero();
+    double total = 0;
+    for (const auto& t : mesh.triangles) {
+        const Vec3 &p = mesh.vertices[t[0]], &q = mesh.vertices[t[1]], &r = mesh.vertices[t[2]];
+        const Vec3 centre = (p + q + r) / 3.0;
+        const double w = 0.5 * (q - p).cross(r - p).norm() * weight(centre);
+        sum += w * centre;
+        total += w;
+    }
+    if (total > 0) return sum / total;
+    return std::nullopt;
+}
+
 }  // namespace amhv

@@ -1,6 +1,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -44,6 +45,9 @@ struct TriangleMesh {
 // The area-weighted centroid of a mesh's triangles (the vertex mean when it has no area; none when
 // it has no vertex).
 std::optional<Vec3> surface_centroid(const TriangleMesh& mesh);
+// The same with each triangle's area also weighted by weight(its centroid) (at least 0); none when
+// the weights sum to 0.
+std::optional<Vec3> weighted_surface_centroid(const TriangleMesh& mesh, const std::function<double(const Vec3&)>& weight);
 
 struct MeshFrame {
     TriangleMesh mesh;

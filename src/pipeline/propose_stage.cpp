@@ -95,22 +95,13 @@ constexpr double kWristBand = 0.01;  // metres
 std::optional<Vec3> wrist(const TriangleMesh& hand, const TriangleMesh* forearm) {
     const std::optional<Vec3> towards = forearm ? surface_centroid(*forearm) : std::nullopt;
     if (!towards || hand.triangles.empty()) return surface_centroid(hand);
-    std::vector<Vec3> centres;
     double nearest = std::numeric_limits<double>::infinity();
-    for (const auto& t : hand.triangles) {
-        centres.push_back((hand.vertices[t[0]] + hand.vertices[t[1]] + hand.vertices[t[2]]) / 3.0);
-        nearest = std::min(nearest, (centres.back() - *towards).norm());
-    }
-    Vec3 sum = Vec3::Zero();
-    double total = 0;
-    for (std::size_t i = 0; i < centres.size(); ++i) {
-        const auto& t = hand.triangles[i];
-        const Vec3 &p = hand.vertices[t[0]], &q = hand.vertices[t[1]], &r = hand.vertices[t[2]];
-        const double e = ((centres[i] - *towards).norm() - nearest) / kWristBand, w = 0.5 * (q - p).cross(r - p).norm() * std::exp(-e * e);
-        sum += w * centres[i];
-        total += w;
-    }
-    return total > 0 ? std::optional<Vec3>(sum / total) : surface_centroid(hand);
+    for (const auto& t : hand.triangles) nearest = std::min(nearest, ((hand.vertices[t[0]] + hand.vertices[t[1]] + hand.vertices[t[2]]) / 3.0 - *towards).norm());
+    const std::optional<Vec3> cap = weighted_surface_centroid(hand, [&](const Vec3& centre) {
+        const double e = ((centre - *towards).norm() - nearest) / kWristBand;
+        return std::exp(-e * e);
+    });
+    return cap ? cap : surface_centroid(hand);
 }
 
 // The hips and hands of a labelled mesh sequence, per frame: the area-weighted surface centroid
