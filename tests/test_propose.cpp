@@ -220,6 +220,40 @@ TEST(Propose, TheShippedPairsProposeTheirKeySegments) {
     }
 }
 
+// Takes captured apart rarely share a tempo. B's take resampled at 108 and 132 fps (its frame k the
+// pose at k / fps s) performs the handshake in 0.9 and 1.1 times A's frames, and A's frame f meets
+// B's rate * f. A proposal pairs windows of equal length (the normalisation makes them one), so B's
+// window is off by up to a tenth of its length at one end; the handshake is still proposed within
+// 5 frames at both ends and edited within 5 cm and 6 degrees of the truth (docs/method.md section 13).
+TEST(Propose, BAtAnotherTempoIsStillMetWhereTheHandsWereHeld) {
+    test::TempDir tmp;
+    for (const auto& [fps, last] : {std::pair{108, 272}, std::pair{132, 330}}) {
+        const double rate = fps / 120.0;
+        const std::string name = fmt::format("tempo{}.toml", fps);
+        const fs::path file = without_segments(tmp.path(), "demo.toml", name, [&](std::string& text) {
+            const std::string frames = "frames = [21, 303]";
+            text.replace(text.find(frames), frames.size(), fmt::format("frames = [{}, {}]\nfps = {}", int(std::lround(21 * rate)), last, fps));
+        });
+        const fs::path out = tmp.path() / (name + ".out");
+        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'", file.string(), out.string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+        const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
+        ASSERT_FALSE(proposals.empty());
+        const auto& p = proposals[0];
+        EXPECT_EQ(p["type"], "0&0a");
+        EXPECT_EQ(p["parts"]["A"], "right_hand");
+        EXPECT_EQ(p["parts"]["B"], "right_hand");
+        for (int end : {0, 1}) {
+            EXPECT_LE(std::abs(p["a"][end].get<int>() - (end ? 147 : 113)), 5) << fps << p.dump();
+            EXPECT_LE(std::abs(p["b"][end].get<int>() - rate * p["a"][end].get<int>()), 5) << fps << p.dump();
+        }
+        const auto truth = nlohmann::json::parse(test::read_text(out / "best" / "result.json"))["segments"][0]["truth"];
+        EXPECT_TRUE(truth["in_group"].get<bool>()) << fps << truth.dump();
+        EXPECT_LE(truth["chosen_error_m"].get<double>(), 0.05) << fps << truth.dump();
+        EXPECT_LE(truth["chosen_error_deg"].get<double>(), 6.0) << fps << truth.dump();
+    }
+}
+
 // Where no pose of B meets A (the sweep's range keeps B 5 m away), there is no proposal: one line
 // and no output.
 TEST(Propose, NoPoseWithinReachIsNoProposal) {
