@@ -218,6 +218,53 @@ TEST(Natural, AStrikesLimbsPointAtEachOther) {
     }
 }
 
+// A strike's contact frame is its impact, from the takes alone: the frame where the limbs' ends
+// lose the most speed. B holds A's high-five pose (as above) while its root slides 0.1 m a frame
+// along x for three frames and then stops: its hand's impact is frame 3, where B's limb is A's
+// moved by the member's offset plus 0.3 m along x. The members 0.6 m from A along x and along y at
+// the impact (their lattice offsets less those 0.3 m) then lie, as above, |t x u| off each other's
+// line with t the two legs of a right triangle of hypotenuse 0.6 m. The frame where the ends are
+// nearest would not do: for the first member it is frame 0, 0.3 m from A.
+TEST(Natural, AStrikesContactIsItsImpact) {
+    test::TempDir dir;
+    const std::string take = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
+    const std::size_t motion = take.find("MOTION");
+    ASSERT_NE(motion, std::string::npos);
+    std::istringstream rows(take.substr(motion));
+    std::string line, pose;
+    for (int n = 0; std::getline(rows, line); ++n)
+        if (n == 3 + 33) pose = line;
+    ASSERT_FALSE(pose.empty());
+    std::istringstream numbers(pose);
+    double x = 0;
+    numbers >> x;
+    std::string rest;
+    std::getline(numbers, rest);
+    constexpr double kUnit = 0.0564444;  // metres per CMU unit, the scene's default
+    std::ofstream still(dir.path() / "still.bvh"), sliding(dir.path() / "sliding.bvh");
+    still << take.substr(0, motion) << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
+    sliding << take.substr(0, motion) << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
+    for (int f = 0; f < 6; ++f) {
+        still << pose << "\n";
+        sliding << fmt::format("{:.9f}", x + 0.1 * std::min(f, 3) / kUnit) << rest << "\n";
+    }
+    still.close(), sliding.close();
+    std::ofstream(dir.path() / "scene.toml") << "[sampling]\nvoxel = 0.01\nangle_step_deg = 90\n\n[objects.A]\nbvh = \"still.bvh\"\ntpose = \"keep\"\n\n"
+                                                "[objects.B]\nbvh = \"sliding.bvh\"\ntpose = \"keep\"\n\n[[segments]]\na = [0, 5]\nb = [0, 5]\n"
+                                                "type = \"0&0b\"\ninterest = { A = { parts = [\"right_hand\"] }, B = { parts = [\"right_hand\"] } }\n";
+    const Scene scene = load_scene(dir.path() / "scene.toml");
+    ObjectSource a(scene.a), b(scene.b);
+    ReferenceVoxeliser voxeliser;
+    KeySweep sweep;
+    sweep.describe = PoseDescriber{0.01, 90, Eigen::Vector2d::UnitX(), Eigen::Vector2d::UnitX()};
+    const std::vector<PoseIndex> members{{30, 0, 0, 0}, {-30, 60, 0, 0}};
+    for (const PoseIndex& p : members) sweep.group.add(p);
+    const NaturalScorer scorer(scene.segments[0], sweep, NaturalFrames{{0, 1, 2, 3, 4, 5}, {0, 1, 2, 3, 4, 5}, {}, {}}, a, b, voxeliser, 6);
+    const double along_x = scorer.terms(members[0]).reach_offset_m, along_y = scorer.terms(members[1]).reach_offset_m;
+    EXPECT_NEAR(std::hypot(along_x, along_y), 0.6, 1e-6) << along_x << " " << along_y;
+    EXPECT_GT(std::min(along_x, along_y), 0.01);
+}
+
 // The shipped handshake, which states no `prefer`: the natural score, not the editor's arbitrary
 // placement, decides, and lands near the captured placement; result.json and the page's file say why.
 TEST(Natural, TheHandshakeWithoutAnIntentLandsNearTheTruth) {
@@ -251,6 +298,37 @@ TEST(Natural, TheHandshakeWithoutAnIntentLandsNearTheTruth) {
     const auto paper = edit("paper", "0");
     EXPECT_FALSE(paper.contains("natural"));
     EXPECT_GE(paper.at("truth").at("chosen_error_m").get<double>(), 0.3) << paper.at("truth").dump();
+}
+
+// The editor's placement of B's capture is where the edit starts, not a statement: the shipped high
+// five (one key segment, no `prefer`) edited with B's capture put elsewhere and turned otherwise
+// chooses the same pose relative to A. With the paper's facing term pulling B's turn toward the
+// placement, the choice went to the group's edge nearest it: 6 degrees from the truth as shipped
+// (B turned by 90), 32 and 34 degrees with B turned by -60 and 200 (docs/method.md section 7).
+TEST(Natural, TheEditorsPlacementOfBDoesNotChooseThePose) {
+    test::TempDir dir;
+    std::string text = test::read_text(test::source_dir() / "data/scenes/highfive.toml");
+    for (std::size_t at; (at = text.find("../cmu/")) != std::string::npos;) text.replace(at, 7, (test::source_dir() / "data/cmu").string() + "/");
+    ASSERT_EQ(text.find("\nprefer = "), std::string::npos);
+    const std::string shipped = "placement = { x = 3.0, y = 2.0, yaw_deg = 90.0 }";
+    ASSERT_NE(text.find(shipped), std::string::npos);
+    std::vector<nlohmann::json> chosen;
+    for (const std::string& placement : {shipped, std::string("placement = { x = -2.0, y = 5.0, yaw_deg = -60.0 }"),
+                                        std::string("placement = { x = 0.5, y = -6.0, yaw_deg = 200.0 }")}) {
+        std::string scene = text;
+        scene.replace(scene.find(shipped), shipped.size(), placement);
+        const fs::path file = dir.path() / fmt::format("placed_{}.toml", chosen.size()), out = dir.path() / fmt::format("out_{}", chosen.size());
+        std::ofstream(file) << scene;
+        const auto run = test::run_amhv(fmt::format("edit '{}' --no-frames --no-glb --no-timings --no-page --out '{}'", file.string(), out.string()));
+        ASSERT_EQ(run.exit_code, 0) << run.output;
+        const auto segment = nlohmann::json::parse(test::read_text(out / "result.json")).at("segments").at(0);
+        chosen.push_back(segment.at("chosen"));
+        EXPECT_LE(segment.at("truth").at("chosen_error_deg").get<double>(), 6.0) << placement << segment.at("truth").dump();
+    }
+    for (const char* key : {"x", "y", "theta_deg"}) {
+        EXPECT_EQ(chosen[1].at(key), chosen[0].at(key)) << key;
+        EXPECT_EQ(chosen[2].at(key), chosen[0].at(key)) << key;
+    }
 }
 
 TEST(Natural, DistanceTransformMatchesBruteForce) {

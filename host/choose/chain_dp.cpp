@@ -36,7 +36,8 @@ public:
         if (!known_ || sol.theta_rad != theta_) {
             known_ = true;
             theta_ = sol.theta_rad;
-            facing_ = (2 - 2 * std::cos(delta_)) + (2 - 2 * std::cos(w_.yaw_a + delta_ + sol.theta_rad - w_.yaw_b));
+            const double b = 2 - 2 * std::cos(w_.yaw_a + delta_ + sol.theta_rad - w_.yaw_b);
+            facing_ = (2 - 2 * std::cos(delta_)) + s_.facing_b_weight * b;
             turn_ = std::pow(angles::wrap_radians(sol.theta_rad - s_.prior_theta_rad), 2);
         }
         const Eigen::Vector2d r(sol.i * w_.voxel, sol.j * w_.voxel);

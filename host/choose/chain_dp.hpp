@@ -33,6 +33,9 @@ struct ChainSegment {
     Eigen::Vector2d root_a = Eigen::Vector2d::Zero(), root_b = Eigen::Vector2d::Zero();  // capture frames, metres
     Eigen::Vector2d prior_offset = Eigen::Vector2d::Zero();  // r0: where the initial placement puts B (A's capture axes)
     double prior_theta_rad = 0;
+    // How much B's facing term counts here (1: the paper's; 0: B's turn is not pulled toward the
+    // editor's placement, docs/method.md section 7).
+    double facing_b_weight = 1;
     // Per solution, a cost the edit adds to the unary (the editor's intent); empty: none.
     std::vector<double> extra_unary;
 };

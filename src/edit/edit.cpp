@@ -230,6 +230,10 @@ std::vector<ChainSegment> make_chain(const Scene& scene, const std::vector<KeySw
         // The natural choice (section 7b) adds natural_weight() times each member's score.
         const bool scored = i < natural.size() && !natural[i].empty();
         const double natural_scale = natural_weight(scene, key);
+        // One key segment chosen by the natural score: B's capture-frame yaw is the editor's
+        // arbitrary placement, not a datum, and with no pairwise term the objective minimised over
+        // that yaw loses B's facing term exactly (docs/method.md section 7).
+        if (sweeps.size() == 1 && scored && !key.intent.prefers()) c.facing_b_weight = 0;
         if (scored && !key.intent.prefers() && !s.group.any_raised()) {
             // Only the natural score: the chain takes the scores themselves, weighted in place.
             c.extra_unary = std::move(natural[i]);

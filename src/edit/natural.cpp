@@ -185,6 +185,15 @@ void NaturalScorer::prepare_reaches(const KeySegment& key, ObjectSource& a, Obje
     for (std::size_t t = 0; t < la.size(); ++t)
         both[t] = floor_plane(la[t].end - la[t].root).norm() >= kReachMinLength && floor_plane(lb[t].end - lb[t].root).norm() >= kReachMinLength;
     if (std::find(both.begin(), both.end(), char(1)) == both.end()) return;
+    // The impact: where the two ends' speeds (per key frame, in their own capture frames, which a
+    // placement only turns and shifts) drop the most across one frame, summed over both.
+    double strongest = 0;
+    for (std::size_t t = 1; t + 1 < la.size(); ++t) {
+        if (!both[t]) continue;
+        const double drop = (la[t].end - la[t - 1].end).norm() - (la[t + 1].end - la[t].end).norm() + (lb[t].end - lb[t - 1].end).norm() -
+                            (lb[t + 1].end - lb[t].end).norm();
+        if (drop > strongest) strongest = drop, impact_ = t;
+    }
     limbs_a_ = std::move(la), limbs_b_ = std::move(lb), reach_frames_ = std::move(both);
 }
 
@@ -344,10 +353,11 @@ double NaturalScorer::crowding(const Angle& g, const Vec3& offset) const {
 }
 
 void NaturalScorer::reach(const Angle& g, const Vec3& offset, NaturalTerms& out) const {
-    // The contact frame: the key frame (with both limbs' directions) where the limbs' ends are nearest.
-    std::size_t contact = 0;
+    // The contact frame: the impact (prepare_reaches), else the key frame (with both limbs'
+    // directions) where the limbs' ends are nearest.
+    std::size_t contact = impact_.value_or(0);
     double nearest = std::numeric_limits<double>::infinity();
-    for (std::size_t t = 0; t < g.limbs.size(); ++t) {
+    for (std::size_t t = 0; t < g.limbs.size() && !impact_; ++t) {
         const double d = (g.limbs[t].end + offset - limbs_a_[t].end).squaredNorm();
         if (reach_frames_[t] && d < nearest) nearest = d, contact = t;
     }

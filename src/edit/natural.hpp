@@ -16,7 +16,8 @@
 //   sliding   a held contact (0&0 (a)) moves together: RMS over the key's frames of the interest
 //             parts' relative offset about its mean (metres), scale 2 cm;
 //   reach     a strike (0&0 (b) between two skeletons' hands or feet) drives the limbs at each
-//             other: at the contact frame (the key frame where the limbs' ends are nearest),
+//             other: at the contact frame (the impact: the key frame where the two ends lose
+//             the most speed, from the takes alone; else the key frame where they are nearest),
 //             1 - cos of the angle on the floor plane between A's limb (shoulder to wrist, hip to
 //             ankle) and B's reversed, scale 1 - cos 30 deg; and each limb's end on the other's
 //             line: mean floor distance (metres) of each end from the other limb's line, scale 4 cm;
@@ -27,6 +28,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -107,6 +109,10 @@ private:
     // whether both have a floor direction there (prepare_reaches); empty: no reach term.
     std::vector<Limb> limbs_a_, limbs_b_;
     std::vector<char> reach_frames_;
+    // The impact: the key frame (with both limbs' directions) where the two ends lose the most
+    // speed, from the takes alone; none when they never slow down (reach() then takes the frame
+    // where the ends are nearest).
+    std::optional<std::size_t> impact_;
     std::vector<Vec3> centroids_a_;  // A's interest part's centroid per frame (empty: none)
     double depth_allowance_ = 0;  // metres of depth the bodies' mittens add when hands touch (depth())
     std::vector<Field> fields_;                             // per frame (empty: no depth term)
