@@ -7,6 +7,7 @@
 #include <numbers>
 #include <tuple>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -227,7 +228,8 @@ TEST(Propose, TheShippedPairsProposeTheirKeySegments) {
 // 5 frames at both ends and edited within 5 cm and 6 degrees of the truth (docs/method.md section 13).
 TEST(Propose, BAtAnotherTempoIsStillMetWhereTheHandsWereHeld) {
     test::TempDir tmp;
-    for (const auto& [fps, last] : {std::pair{108, 272}, std::pair{132, 330}}) {
+    for (const auto& tempo : {std::pair{108, 272}, std::pair{132, 330}}) {
+        const int fps = tempo.first, last = tempo.second;  // plain names: the lambda below captures them
         const double rate = fps / 120.0;
         const std::string name = fmt::format("tempo{}.toml", fps);
         const fs::path file = without_segments(tmp.path(), "demo.toml", name, [&](std::string& text) {
