@@ -662,7 +662,8 @@ void add_part(const fs::path& obj, const fs::path& labels, const std::string& na
 
 // The handshake, after which B steps back holding a pole (8 m, 2 cm thick, at knee height) out in
 // front of it: facing A, as the editor's intent prefers, the pole runs through A for the whole
-// transition, and 12 rounds of pushing the two apart cannot free it. The DP chooses again without
+// transition, and pushing the two apart makes no progress (six rounds in a row free no frame and
+// lower no overlap: the pole still runs through A). The DP chooses again without
 // that key pose (and its cell: the same angles, within 15 cm) until B stands turned enough that
 // the pole passes A: every transitional frame free, checked from transforms.json alone; both
 // backends give the same files. With limits that keep only poses facing A (one cell), no choice is
@@ -704,7 +705,7 @@ TEST(Edit, AKeyPoseNoTransitionCanLeaveIsChosenAgain) {
     EXPECT_LE(result.at("dp").at("choices_tried").get<int>(), kMaxKeyChoices);
     EXPECT_GT(result.at("dp").at("cost").get<double>(), paper.at("dp").at("cost").get<double>());
     const double turned = std::abs(result.at("segments")[0].at("chosen").at("thetaB_deg").get<double>());
-    EXPECT_GT(turned, 20.0);  // B no longer faces A
+    EXPECT_GT(turned, 10.0);  // B no longer faces A
     for (const auto& t : result.at("transitions")) EXPECT_EQ(t.at("frames_overlapping").get<int>(), 0) << t.dump();
     // The choice that stands reports every output frame once, in order, and every transition once,
     // whether its segments were checked afresh or kept from an earlier choice.

@@ -364,7 +364,13 @@ void keep_in_place(const TimelineSegment& seg, double yaw, EditResult& r) {
     }
 }
 
-constexpr int kSeparationRounds = 12;
+// Separation gives up when kStallRounds rounds in a row free no frame and lower the largest
+// overlap below its best (the pushes are not freeing the transition: choosing the key poses again
+// costs less and bends the paths less than pushing the performers metres apart), and after
+// kSeparationRounds in all. A few rounds without progress are normal while a push accumulates: the
+// overlap of a frame being pushed wavers by a few voxels for up to 4 rounds on the paper scene at
+// 5 mm before it frees (docs/method.md section 8a).
+constexpr int kSeparationRounds = 24, kStallRounds = 6;
 
 // Frame numbers as "39-86, 127" for messages.
 std::string frame_ranges(const std::vector<int>& frames) {
@@ -420,10 +426,13 @@ TransitionCheck separate_transition(const SeparationContext& c, int s, const Edi
     checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser, gaps);
     tally(t.overlapping_before, t.max_overlap_before);
     t.smoothness_before = t.smoothness = smoothness();
+    // Progress: fewer overlapping frames, or as many with a smaller largest overlap.
+    std::pair<int, std::uint64_t> best{t.overlapping_before, t.max_overlap_before};
+    int stalled = 0;
     const double w_a = c.scene.weights.w_a, w_b = c.scene.weights.w_b;
     const double share_a = std::isinf(w_a) ? 0.0 : w_b / (w_a + w_b);
     std::array<std::map<int, Eigen::Vector2d>, 2> targets;
-    for (; t.rounds < kSeparationRounds && !options.allow_transition_overlap; ++t.rounds) {
+    for (; t.rounds < kSeparationRounds && stalled < kStallRounds && !options.allow_transition_overlap; ++t.rounds) {
         bool any = false;
         for (const FrameCheck& f : checks) {
             if (f.overlap == 0) continue;
@@ -436,6 +445,10 @@ TransitionCheck separate_transition(const SeparationContext& c, int s, const Edi
         for (PathReport& p : r.paths)
             if (p.timeline_segment == s) p = optimise_transition(seg, s, p.object, c.weights, r, targets[std::size_t(p.object)]);
         checks = check_frames(r, frames, *c.sources[0], *c.sources[1], h, c.voxeliser, gaps);
+        std::pair<int, std::uint64_t> now;
+        tally(now.first, now.second);
+        if (now < best) best = now, stalled = 0;
+        else ++stalled;
     }
     tally(t.overlapping, t.max_overlap);
     t.smoothness = smoothness();
