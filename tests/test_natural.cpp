@@ -168,6 +168,19 @@ TEST(Natural, AHeldContactWhosePartsSlideLosesToOneWhosePartsMoveTogether) {
     EXPECT_LT(scorer.terms(together).cost(), scorer.terms(sliding).cost());
 }
 
+// The CMU 20_11 high five's skeleton (its BVH up to MOTION) and its frame 33, the slap, as the
+// file writes it; an empty pose when the file has no such frame.
+std::pair<std::string, std::string> high_five_pose() {
+    const std::string take = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
+    const std::size_t motion = take.find("MOTION");
+    if (motion == std::string::npos) return {};
+    std::istringstream rows(take.substr(motion));
+    std::string line, pose;
+    for (int n = 0; std::getline(rows, line); ++n)
+        if (n == 3 + 33) pose = line;  // MOTION, Frames:, Frame Time:, then frame 0
+    return {take.substr(0, motion), pose};
+}
+
 // A strike's limbs: both objects hold one pose of the CMU 20_11 high five (its frame 33, the
 // slap, for four frames). B is A's own pose, so B's shoulder-to-wrist line on the floor is A's
 // turned by theta, and the reach term is 1 - cos of the angle between A's and B's reversed:
@@ -178,15 +191,9 @@ TEST(Natural, AHeldContactWhosePartsSlideLosesToOneWhosePartsMoveTogether) {
 // has no reach term.
 TEST(Natural, AStrikesLimbsPointAtEachOther) {
     test::TempDir dir;
-    const std::string take = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
-    const std::size_t motion = take.find("MOTION");
-    ASSERT_NE(motion, std::string::npos);
-    std::istringstream rows(take.substr(motion));
-    std::string line, pose;
-    for (int n = 0; std::getline(rows, line); ++n)
-        if (n == 3 + 33) pose = line;  // MOTION, Frames:, Frame Time:, then frame 0
+    const auto [header, pose] = high_five_pose();
     ASSERT_FALSE(pose.empty());
-    std::ofstream(dir.path() / "pose.bvh") << take.substr(0, motion) << "MOTION\nFrames: 4\nFrame Time: 0.0333333\n"
+    std::ofstream(dir.path() / "pose.bvh") << header << "MOTION\nFrames: 4\nFrame Time: 0.0333333\n"
                                            << pose << "\n" << pose << "\n" << pose << "\n" << pose << "\n";
     auto scene_text = [](const std::string& type) {
         return "[sampling]\nvoxel = 0.01\nangle_step_deg = 90\n\n[objects.A]\nbvh = \"pose.bvh\"\ntpose = \"keep\"\n\n[objects.B]\nbvh = "
@@ -227,13 +234,7 @@ TEST(Natural, AStrikesLimbsPointAtEachOther) {
 // nearest would not do: for the first member it is frame 0, 0.3 m from A.
 TEST(Natural, AStrikesContactIsItsImpact) {
     test::TempDir dir;
-    const std::string take = test::read_text(test::source_dir() / "data/cmu/20_11.bvh");
-    const std::size_t motion = take.find("MOTION");
-    ASSERT_NE(motion, std::string::npos);
-    std::istringstream rows(take.substr(motion));
-    std::string line, pose;
-    for (int n = 0; std::getline(rows, line); ++n)
-        if (n == 3 + 33) pose = line;
+    const auto [header, pose] = high_five_pose();
     ASSERT_FALSE(pose.empty());
     std::istringstream numbers(pose);
     double x = 0;
@@ -242,8 +243,8 @@ TEST(Natural, AStrikesContactIsItsImpact) {
     std::getline(numbers, rest);
     constexpr double kUnit = 0.0564444;  // metres per CMU unit, the scene's default
     std::ofstream still(dir.path() / "still.bvh"), sliding(dir.path() / "sliding.bvh");
-    still << take.substr(0, motion) << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
-    sliding << take.substr(0, motion) << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
+    still << header << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
+    sliding << header << "MOTION\nFrames: 6\nFrame Time: 0.0333333\n";
     for (int f = 0; f < 6; ++f) {
         still << pose << "\n";
         sliding << fmt::format("{:.9f}", x + 0.1 * std::min(f, 3) / kUnit) << rest << "\n";

@@ -221,6 +221,23 @@ TEST(Propose, TheShippedPairsProposeTheirKeySegments) {
     }
 }
 
+// `amhv propose FILE --out OUT` (with `flags`) and its first proposal, which the tests below expect
+// to be the handshake: 0&0a on the right hands. Null when the run fails or proposes nothing (the
+// failure is reported).
+nlohmann::json first_handshake_proposal(const fs::path& file, const fs::path& out, const std::string& flags = "") {
+    const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'{}", file.string(), out.string(), flags));
+    EXPECT_EQ(run.exit_code, 0) << run.output;
+    if (run.exit_code != 0) return nullptr;
+    const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
+    EXPECT_FALSE(proposals.empty());
+    if (proposals.empty()) return nullptr;
+    const nlohmann::json& p = proposals[0];
+    EXPECT_EQ(p["type"], "0&0a");
+    EXPECT_EQ(p["parts"]["A"], "right_hand");
+    EXPECT_EQ(p["parts"]["B"], "right_hand");
+    return p;
+}
+
 // Takes captured apart rarely share a tempo. B's take resampled at 108 and 132 fps (its frame k the
 // pose at k / fps s) performs the handshake in 0.9 and 1.1 times A's frames, and A's frame f meets
 // B's rate * f. A proposal pairs windows of equal length (the normalisation makes them one), so B's
@@ -237,14 +254,8 @@ TEST(Propose, BAtAnotherTempoIsStillMetWhereTheHandsWereHeld) {
             text.replace(text.find(frames), frames.size(), fmt::format("frames = [{}, {}]\nfps = {}", int(std::lround(21 * rate)), last, fps));
         });
         const fs::path out = tmp.path() / (name + ".out");
-        const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}'", file.string(), out.string()));
-        ASSERT_EQ(run.exit_code, 0) << run.output;
-        const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
-        ASSERT_FALSE(proposals.empty());
-        const auto& p = proposals[0];
-        EXPECT_EQ(p["type"], "0&0a");
-        EXPECT_EQ(p["parts"]["A"], "right_hand");
-        EXPECT_EQ(p["parts"]["B"], "right_hand");
+        const nlohmann::json p = first_handshake_proposal(file, out);
+        ASSERT_FALSE(p.is_null()) << fps;
         for (int end : {0, 1}) {
             EXPECT_LE(std::abs(p["a"][end].get<int>() - (end ? 147 : 113)), 5) << fps << p.dump();
             EXPECT_LE(std::abs(p["b"][end].get<int>() - rate * p["a"][end].get<int>()), 5) << fps << p.dump();
@@ -288,15 +299,8 @@ TEST(Propose, ALabelledMeshSequenceProposesWhatItsTakeDoes) {
                "labels = \"b/labels/frame_%04d.txt\"\nunit = \"m\"\nup = \"z\"\nfps = 120\nframes = [21, 303]\n"
                "placement = { x = 4.0, y = -3.0, yaw_deg = 120.0 }\n";
     });
-    const fs::path out = tmp.path() / "out";
-    const auto run = test::run_amhv(fmt::format("propose '{}' --out '{}' --no-best", file.string(), out.string()));
-    ASSERT_EQ(run.exit_code, 0) << run.output;
-    const nlohmann::json proposals = nlohmann::json::parse(test::read_text(out / "proposals.json"))["proposals"];
-    ASSERT_FALSE(proposals.empty());
-    const auto& p = proposals[0];
-    EXPECT_EQ(p["type"], "0&0a");
-    EXPECT_EQ(p["parts"]["A"], "right_hand");
-    EXPECT_EQ(p["parts"]["B"], "right_hand");
+    const nlohmann::json p = first_handshake_proposal(file, tmp.path() / "out", " --no-best");
+    ASSERT_FALSE(p.is_null());
     EXPECT_LE(std::abs(p["shift_frames"].get<int>()), 2) << p.dump();
     for (const char* side : {"a", "b"}) {
         EXPECT_LE(std::abs(p[side][0].get<int>() - 113), 5) << p.dump();
