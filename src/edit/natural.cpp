@@ -69,6 +69,10 @@ std::array<std::string, 2> limb_roles(const PartSpec& part) {
     return {};
 }
 
+// What lies between a limb's end joint and the surface it strikes with (metres; `part` is a limb's
+// end, limb_roles).
+double end_depth(const PartSpec& part) { return part.labels[0].ends_with("foot") ? kImpactFootDepth : kImpactHandDepth; }
+
 // Per frame of `frames`, the limb from its root joint to its end joint in a BVH object's capture
 // frame (scene metres). Empty when the object has no skeleton or the part is not a limb's end.
 std::vector<Limb> limb_segments(const ObjectSource& o, const PartSpec& part, const std::vector<int>& frames) {
@@ -105,6 +109,12 @@ double NaturalTerms::cost() const {
     if (!std::isnan(crowding)) c += crowding;
     if (!std::isnan(reach)) c += square(reach / gaze_scale);
     if (!std::isnan(reach_offset_m)) c += square(reach_offset_m / kReachOffsetScale);
+    if (!std::isnan(impact_gap_m)) {
+        // The touch falls anywhere in the frame after the impact frame, where the ends would have
+        // closed as far again: uniform over [0, closing], mean closing / 2, deviation closing / sqrt 12.
+        const double spread = std::max(impact_closing_m / std::sqrt(12.0), kNaturalDepthScale);
+        c += square((impact_gap_m - 0.5 * impact_closing_m) / spread);
+    }
     return c;
 }
 
@@ -195,6 +205,7 @@ void NaturalScorer::prepare_reaches(const KeySegment& key, ObjectSource& a, Obje
         if (drop > strongest) strongest = drop, impact_ = t;
     }
     limbs_a_ = std::move(la), limbs_b_ = std::move(lb), reach_frames_ = std::move(both);
+    impact_depth_ = end_depth(key.interest_a) + end_depth(key.interest_b);
 }
 
 void NaturalScorer::prepare_tracks(ObjectSource& a, ObjectSource& b) {
@@ -367,6 +378,15 @@ void NaturalScorer::reach(const Angle& g, const Vec3& offset, NaturalTerms& out)
     // 1 - cos of the angle between A's limb and B's reversed; each end's distance from the other's line.
     out.reach = 1.0 + da.dot(db);
     out.reach_offset_m = 0.5 * (off_line(lb.end, la, da) + off_line(la.end, lb, db));
+    if (!impact_) return;
+    // The impact's frame is the last before the ends meet (they lose their speed over the next):
+    // B's end relative to A's there and a key frame before, closing along `closing`.
+    const Vec3 now = lb.end - la.end, before = g.limbs[contact - 1].end + offset - limbs_a_[contact - 1].end;
+    const Vec3 closing = now - before;
+    const double closed = closing.norm();
+    if (closed < 1e-9) return;
+    out.impact_closing_m = closed;
+    out.impact_gap_m = -now.dot(closing) / closed - impact_depth_;
 }
 
 NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {

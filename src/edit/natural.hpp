@@ -21,6 +21,10 @@
 //             1 - cos of the angle on the floor plane between A's limb (shoulder to wrist, hip to
 //             ankle) and B's reversed, scale 1 - cos 30 deg; and each limb's end on the other's
 //             line: mean floor distance (metres) of each end from the other limb's line, scale 4 cm;
+//             and the impact gap: at the impact, how far B's end is short of A's along their
+//             closing motion, less the ends' depth (metres), against half the closing c over the
+//             frame into the impact (where the touch falls in the next frame is unknown: uniform),
+//             scale c / sqrt 12, at least 1 cm;
 //   crowding  outside the contact people keep out of each other's intimate zone: over the frames
 //             within one second before and after the key (the key's placement carried on), the
 //             mean of (max(0, 0.45 m - root distance on the floor) / 10 cm)^2.
@@ -113,6 +117,7 @@ private:
     // speed, from the takes alone; none when they never slow down (reach() then takes the frame
     // where the ends are nearest).
     std::optional<std::size_t> impact_;
+    double impact_depth_ = 0;  // what lies between the two end joints when the ends touch (metres)
     std::vector<Vec3> centroids_a_;  // A's interest part's centroid per frame (empty: none)
     double depth_allowance_ = 0;  // metres of depth the bodies' mittens add when hands touch (depth())
     std::vector<Field> fields_;                             // per frame (empty: no depth term)

@@ -24,6 +24,12 @@ inline constexpr double kReachMinLength = 0.05;
 // A strike's ends off each other's limb line (reach_offset_m): half an adult's palm breadth (ANSUR II
 // hand breadth 7.8-8.9 cm), metres: a palm further off its line meets the other with its edge.
 inline constexpr double kReachOffsetScale = 0.04;
+// A strike's ends at the impact (impact_gap_m): what lies between an end joint and the surface it
+// strikes with, metres. A hand: half its thickness across the knuckles (kHandThickness, 3 cm: a
+// palm or the back of the hand meets the other). A foot: half its breadth (ANSUR II foot breadth
+// 9.1-10.1 cm, women's and men's means: the instep or the side meets the other).
+inline constexpr double kImpactHandDepth = 0.015;
+inline constexpr double kImpactFootDepth = 0.048;
 // At most this many of the key's normalised frames are scored (evenly spaced, ends included).
 inline constexpr int kNaturalFrames = 8;
 // At most this many points of B's interest part per frame; fewer for large groups, so that a
@@ -40,6 +46,8 @@ struct NaturalTerms {
     double crowding = kNone;   // already scaled and squared
     double reach = kNone;      // 1 - cos, at the contact frame
     double reach_offset_m = kNone;  // metres, at the contact frame
+    double impact_gap_m = kNone;      // metres: the ends' surfaces apart along their closing at the impact
+    double impact_closing_m = kNone;  // metres: how far the ends closed over the key frame into the impact
     // Sum over the terms that apply of (term / scale)^2 (crowding as it is).
     double cost() const;
 };

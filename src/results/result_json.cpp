@@ -26,7 +26,8 @@ Json natural_terms_json(const NaturalTerms& t) {
     auto value = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
     return {{"cost", t.cost()}, {"gaze", value(t.gaze)}, {"depth_m", value(t.depth_m)}, {"sliding_m", value(t.sliding_m)},
             {"crowding", value(t.crowding)}, {"reach", value(t.reach)},
-            {"reach_offset_m", value(t.reach_offset_m)}};
+            {"reach_offset_m", value(t.reach_offset_m)}, {"impact_gap_m", value(t.impact_gap_m)},
+            {"impact_closing_m", value(t.impact_closing_m)}};
 }
 
 namespace {
