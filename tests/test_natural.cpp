@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <random>
@@ -100,6 +101,31 @@ TEST(Natural, FlushFacesBeatACornerDrivenIntoTheOther) {
     // The group's order is (theta, y, x): flush (j = 0) before corner (j = 15).
     EXPECT_EQ(costs[0], at_flush.cost());
     EXPECT_EQ(costs[1], at_corner.cost());
+}
+
+// costs() finds a group's gazes a batch of members at a time (members the inner loop); each
+// member's score is still its own, bit for bit: the same as cost() of the member alone. B moves
+// and looks askew, so every part of the gaze term (the other's eye, the contact, the walker's
+// path) decides somewhere in the group; runs of members cross the batches' bounds and angles.
+TEST(Natural, ScoresFoundInBatchesAreEachMembersOwn) {
+    NaturalFixture f([](int t) -> Vec3 { return kCentre + Vec3(0.01 * t, 0, 0); }, [](int t) -> Vec3 { return kCentre + Vec3(0.04 * t, 0.03 * t, 0); },
+                     Vec3(1, 0.3, 0), Vec3(-0.2, 1, 0.1));
+    KeySweep sweep;
+    std::vector<PoseIndex> members;
+    for (int k = 0; k < 4; ++k)
+        for (int j = -60; j <= 60; j += 20)
+            for (int i = -90 + 7 * k; i <= 100 - j / 2; ++i) members.push_back({i, j, k, 0});
+    const NaturalScorer scorer = f.scorer(sweep, members, kCentre, kCentre);
+    const std::vector<double> costs = scorer.costs(sweep.group);
+    ASSERT_EQ(costs.size(), sweep.group.size());
+    std::uint64_t m = 0, differ = 0;
+    double lowest = std::numeric_limits<double>::infinity(), highest = 0;
+    sweep.group.for_each([&](const PoseIndex& p) {
+        differ += costs[m++] != scorer.cost(p);
+        lowest = std::min(lowest, scorer.terms(p).gaze), highest = std::max(highest, scorer.terms(p).gaze);
+    });
+    EXPECT_EQ(differ, 0u);
+    EXPECT_LT(lowest, 0.5 * highest) << "the gaze term should vary over the group";
 }
 
 TEST(Natural, AHeadThatLooksAtTheOtherBeatsOneThatLooksAway) {

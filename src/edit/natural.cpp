@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -310,32 +312,63 @@ void NaturalScorer::prepare_angles(const KeySegment& key, ObjectSource& a, Objec
 }
 
 double NaturalScorer::gaze(const Angle& g, const Vec3& offset) const {
-    // 1 - cos of the angle between unit `gaze` and the direction from `from` to `to` (0 when
-    // they coincide: nothing to look away from).
-    auto along = [](const Vec3& gaze, const Vec3& u, double length) { return length < 1e-9 ? 0.0 : 1.0 - gaze.dot(u) / length; };
-    auto away = [&](const Vec3& gaze, const Vec3& from, const Vec3& to) {
-        const Vec3 u = floor_plane(to - from);
-        return along(gaze, u, u.norm());
-    };
-    double sum = 0;
-    for (std::size_t t = 0; t < g.eyes.size(); ++t) {
-        const Vec3 eye_b = g.eyes[t] + offset;
-        // Each head toward the other's eye: one direction and one length for both (a - b is
-        // exactly -(b - a), so this is away() of each, bit for bit).
-        const Vec3 u = floor_plane(eye_b - eyes_a_[t]);
-        const double length = u.norm();
-        double a = along(gazes_a_[t], u, length), b = along(g.gazes[t], -u, length);
-        if (!g.centroids.empty()) {
-            const Vec3 contact = 0.5 * (centroids_a_[t] + g.centroids[t] + offset);
-            a = std::min(a, away(gazes_a_[t], eyes_a_[t], contact));
-            b = std::min(b, away(g.gazes[t], eye_b, contact));
+    double out = 0;
+    gazes(g, {&offset.x(), 1}, {&offset.y(), 1}, {&out, 1});
+    return out;
+}
+
+namespace {
+
+// 1 - cos of the angle between unit gaze (gx, gy) and the direction (ux, uy) of `length` (0 when it
+// has none: nothing to look away from). Branch-free, so that a loop over members vectorises: the
+// division always runs, by 1 where the direction has no length.
+inline double along(double gx, double gy, double ux, double uy, double length) {
+    const bool none = length < 1e-9;
+    const double cosine = (gx * ux + gy * uy) / (none ? 1.0 : length);
+    return none ? 0.0 : 1.0 - cosine;
+}
+
+// One frame of NaturalScorer::gazes for every member: adds each member's two heads' terms to
+// sum[n]. `centroids` is the sum of the two interest parts' centroids (with kContact); travel_a and
+// travel_b are the walkers' terms, infinite where a head does not walk.
+template <bool kContact>
+void gaze_frame(const Vec3& ea, const Vec3& ga, const Vec3& eb, const Vec3& gb, const Vec3& centroids, double travel_a, double travel_b,
+                std::span<const double> x, std::span<const double> y, std::span<double> sum) {
+    // Read once, before the loop: a read inside it may not be moved out of a branch.
+    const double eax = ea.x(), eay = ea.y(), gax = ga.x(), gay = ga.y(), ebx0 = eb.x(), eby0 = eb.y(), gbx = gb.x(), gby = gb.y();
+    const double mx = centroids.x(), my = centroids.y();
+    for (std::size_t n = 0; n < sum.size(); ++n) {
+        // Each head toward the other's eye: one direction and one length for both.
+        const double ebx = ebx0 + x[n], eby = eby0 + y[n];
+        const double ux = ebx - eax, uy = eby - eay;
+        const double length = std::sqrt(ux * ux + uy * uy);
+        double a = along(gax, gay, ux, uy, length), b = along(gbx, gby, -ux, -uy, length);
+        if constexpr (kContact) {  // or toward the contact, the midpoint of the two centroids
+            const double cx = 0.5 * (mx + x[n]), cy = 0.5 * (my + y[n]);
+            const double vx = cx - eax, vy = cy - eay, wx = cx - ebx, wy = cy - eby;
+            a = std::min(a, along(gax, gay, vx, vy, std::sqrt(vx * vx + vy * vy)));
+            b = std::min(b, along(gbx, gby, wx, wy, std::sqrt(wx * wx + wy * wy)));
         }
         // A walker may look where it goes (placement turns its gaze and its path alike).
-        if (!std::isnan(travel_a_[t])) a = std::min(a, travel_a_[t]);
-        if (!std::isnan(travel_b_[t])) b = std::min(b, travel_b_[t]);
-        sum += a + b;
+        sum[n] += std::min(a, travel_a) + std::min(b, travel_b);
     }
-    return sum / (2.0 * double(g.eyes.size()));
+}
+
+}  // namespace
+
+void NaturalScorer::gazes(const Angle& g, std::span<const double> x, std::span<const double> y, std::span<double> out) const {
+    // Members are the inner loop; each member's sum runs over the frames in order, so a batch
+    // gives each member gaze()'s bits.
+    constexpr double kNoTravel = std::numeric_limits<double>::infinity();
+    std::fill(out.begin(), out.end(), 0.0);
+    for (std::size_t t = 0; t < g.eyes.size(); ++t) {
+        const double travel_a = std::isnan(travel_a_[t]) ? kNoTravel : travel_a_[t], travel_b = std::isnan(travel_b_[t]) ? kNoTravel : travel_b_[t];
+        if (g.centroids.empty())
+            gaze_frame<false>(eyes_a_[t], gazes_a_[t], g.eyes[t], g.gazes[t], Vec3::Zero(), travel_a, travel_b, x, y, out);
+        else
+            gaze_frame<true>(eyes_a_[t], gazes_a_[t], g.eyes[t], g.gazes[t], centroids_a_[t] + g.centroids[t], travel_a, travel_b, x, y, out);
+    }
+    for (double& sum : out) sum /= 2.0 * double(g.eyes.size());
 }
 
 double NaturalScorer::depth(const Angle& g, const PoseIndex& pose) const {
@@ -389,28 +422,54 @@ void NaturalScorer::reach(const Angle& g, const Vec3& offset, NaturalTerms& out)
     out.impact_gap_m = -now.dot(closing) / closed - impact_depth_;
 }
 
-NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {
-    NaturalTerms out;
-    if (angles_.empty()) return out;
-    const Angle& g = angles_[std::size_t(pose.k)];
+Vec3 NaturalScorer::member_offset(const PoseIndex& pose) const {
     // B's point q goes to R(theta) (q - C^B) + C^A + (i h, j h, l h): the samples are turned about
     // C^B already; the offset adds the rest.
-    const Vec3 offset(root_a_.x() + pose.i * h_, root_a_.y() + pose.j * h_, pose.l * h_);
-    if (tracks_ && !g.eyes.empty()) out.gaze = gaze(g, offset);
+    return {root_a_.x() + pose.i * h_, root_a_.y() + pose.j * h_, pose.l * h_};
+}
+
+NaturalTerms NaturalScorer::terms(const PoseIndex& pose) const {
+    if (angles_.empty()) return {};
+    const Angle& g = angles_[std::size_t(pose.k)];
+    return terms(pose, tracks_ && !g.eyes.empty() ? gaze(g, member_offset(pose)) : NaturalTerms::kNone);
+}
+
+NaturalTerms NaturalScorer::terms(const PoseIndex& pose, double gaze) const {
+    NaturalTerms out;
+    const Angle& g = angles_[std::size_t(pose.k)];
+    const Vec3 at = member_offset(pose);
+    out.gaze = gaze;
     if (!g.cells.empty()) out.depth_m = depth(g, pose);
     out.sliding_m = g.sliding;
-    if (!g.around.empty()) out.crowding = crowding(g, offset);
-    if (!g.limbs.empty()) reach(g, offset, out);
+    if (!g.around.empty()) out.crowding = crowding(g, at);
+    if (!g.limbs.empty()) reach(g, at, out);
     return out;
 }
 
 std::vector<double> NaturalScorer::costs(const SolutionGroup& group) const {
     constexpr std::uint64_t kChunk = std::uint64_t(1) << 16;
+    constexpr std::size_t kBatch = 64;  // members of one angle whose gazes are found together
     const std::uint64_t n = group.size();
     std::vector<double> out(n);
+    if (angles_.empty()) return out;
     parallel_for(std::size_t((n + kChunk - 1) / kChunk), [&](std::size_t chunk) {
         std::uint64_t at = chunk * kChunk;
-        group.for_range(at, std::min(n, at + kChunk), [&](const PoseIndex& p) { out[at++] = cost(p); });
+        std::vector<PoseIndex> batch;
+        std::array<double, kBatch> x{}, y{}, gaze{};
+        auto flush = [&] {
+            const Angle& g = angles_[std::size_t(batch.front().k)];
+            const bool looks = tracks_ && !g.eyes.empty();
+            if (looks) gazes(g, {x.data(), batch.size()}, {y.data(), batch.size()}, {gaze.data(), batch.size()});
+            for (std::size_t m = 0; m < batch.size(); ++m) out[at++] = terms(batch[m], looks ? gaze[m] : NaturalTerms::kNone).cost();
+            batch.clear();
+        };
+        group.for_range(at, std::min(n, at + kChunk), [&](const PoseIndex& p) {
+            if (!batch.empty() && (batch.size() == kBatch || p.k != batch.front().k)) flush();
+            const Vec3 o = member_offset(p);
+            x[batch.size()] = o.x(), y[batch.size()] = o.y();
+            batch.push_back(p);
+        });
+        if (!batch.empty()) flush();
     });
     return out;
 }

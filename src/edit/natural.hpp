@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -96,6 +97,10 @@ private:
     void prepare_reaches(const KeySegment& key, ObjectSource& a, ObjectSource& b);
     void prepare_angles(const KeySegment& key, ObjectSource& a, ObjectSource& b, int angles);
     double gaze(const Angle& g, const Vec3& offset) const;
+    // gaze() of the members whose offsets are (x[n], y[n], any height), into out[n].
+    void gazes(const Angle& g, std::span<const double> x, std::span<const double> y, std::span<double> out) const;
+    Vec3 member_offset(const PoseIndex& pose) const;  // where a member moves B beyond its turn about C^B
+    NaturalTerms terms(const PoseIndex& pose, double gaze) const;  // with its gaze already found
     double depth(const Angle& g, const PoseIndex& pose) const;
     double crowding(const Angle& g, const Vec3& offset) const;
     void reach(const Angle& g, const Vec3& offset, NaturalTerms& out) const;
