@@ -4,6 +4,7 @@
 #include <limits>
 #include <vector>
 
+#include "src/body/skeleton_body.hpp"
 #include "src/sweep/problem.hpp"
 
 namespace amhv {
@@ -25,10 +26,10 @@ inline constexpr double kReachMinLength = 0.05;
 // hand breadth 7.8-8.9 cm), metres: a palm further off its line meets the other with its edge.
 inline constexpr double kReachOffsetScale = 0.04;
 // A strike's ends at the impact (impact_gap_m): what lies between an end joint and the surface it
-// strikes with, metres. A hand: half its thickness across the knuckles (kHandThickness, 3 cm: a
-// palm or the back of the hand meets the other). A foot: half its breadth (ANSUR II foot breadth
+// strikes with, metres. A hand: half its thickness across the knuckles (the bodies' kHandThickness,
+// 3 cm: a palm or the back of the hand meets the other). A foot: half its breadth (ANSUR II foot breadth
 // 9.1-10.1 cm, women's and men's means: the instep or the side meets the other).
-inline constexpr double kImpactHandDepth = 0.015;
+inline constexpr double kImpactHandDepth = 0.5 * kHandThickness;
 inline constexpr double kImpactFootDepth = 0.048;
 // At most this many of the key's normalised frames are scored (evenly spaced, ends included).
 inline constexpr int kNaturalFrames = 8;
